@@ -1,0 +1,35 @@
+# weldtwin: the two commands of the README, plus benchmarks. Every target installs what is missing first.
+BUILD ?= build
+JOBS  ?= $(shell nproc)
+OUT   ?= out
+CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
+
+.PHONY: setup configure build run test bench format clean
+
+setup:
+	@bash scripts/setup
+
+configure: setup
+	@cmake -S . -B $(BUILD) $(CMAKE_FLAGS) >/dev/null
+
+build: configure
+	@cmake --build $(BUILD) -j$(JOBS)
+
+# Until `weldtwin run` exists, the main job is the default sweep: ScanLog, base-frame cloud and its truth.
+run: build
+	@mkdir -p $(OUT)
+	$(BUILD)/app/weldtwin scan scenes/cells/default.yaml --out $(OUT)/default.scanlog \
+	  --cloud $(OUT)/scan.pcd --truth $(OUT)/truth.json
+	@echo "make run: wrote $(OUT)/default.scanlog, $(OUT)/scan.pcd and $(OUT)/truth.json"
+
+test: build
+	@cd $(BUILD) && ctest --output-on-failure -j$(JOBS)
+
+bench: build
+	$(BUILD)/benchmarks/weldtwin_bench --benchmark_min_time=0.5
+
+format:
+	@git ls-files '*.cpp' '*.hpp' | xargs clang-format -i
+
+clean:
+	rm -rf $(BUILD) $(OUT)

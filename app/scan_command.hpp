@@ -1,0 +1,26 @@
+// `weldtwin scan`: simulate the cell's sweep and write the ScanLog, optionally the base-frame cloud (PCD) and
+// the twin's ground truth (JSON).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+namespace weldtwin {
+
+struct ScanCommand {
+  std::string cell;
+  std::optional<uint64_t> seed;
+  std::string out_log;
+  std::string cloud;    ///< "" = none
+  std::string truth;    ///< "" = none
+  std::string mjcf;     ///< "" = none: where to save the composed MJCF
+  bool noise_free = false;
+  int threads = 0;
+  bool quiet = false;
+};
+
+/// Runs the command; returns the process exit code. Throws InputError for bad input.
+int run_scan(const ScanCommand& cmd);
+
+}  // namespace weldtwin

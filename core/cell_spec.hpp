@@ -1,0 +1,58 @@
+// A welding cell (scenes/cells/*.yaml): the environment MJCF, the robot, the sweep program, the table, where a
+// part may be placed, the part with its pose, its clamps, clutter and LiDAR setting overrides.
+#pragma once
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/geometry.hpp"
+
+namespace weldtwin {
+
+/// Top of the welding table in the base frame; the top face is the plane z = top_z_m.
+struct TableSpec {
+  double x_min_m = -0.12, x_max_m = 0.68;
+  double y_min_m = -0.60, y_max_m = 0.60;
+  double top_z_m = 0.0;
+};
+
+/// Where parts may go: their seams within a ring around the robot base, in front of it.
+struct PlacementSpec {
+  double min_radius_m = 0.28;    ///< closest seam point to the base axis
+  double max_radius_m = 0.62;    ///< farthest seam point from the base axis
+  double max_bearing_rad = deg2rad(75.0);  ///< |atan2(y, x)| of the part origin
+  double base_keepout_m = 0.16;  ///< no part or clamp within this radius of the base axis
+};
+
+struct PartPose {
+  double x_m = 0.0, y_m = 0.0, z_m = 0.0, yaw_rad = 0.0;
+};
+
+struct ClutterItem {
+  enum class Type { kBox, kCylinder };
+  Type type = Type::kBox;
+  Vec3 size_m = Vec3::Zero();  ///< box: full extents; cylinder: (diameter, diameter, height)
+  double x_m = 0.0, y_m = 0.0, yaw_rad = 0.0;
+};
+
+struct CellSpec {
+  std::string source;           ///< the YAML file
+  std::string name;
+  std::string environment_mjcf;  ///< resolved path: table, floor, lights, cameras
+  std::string robot_urdf;        ///< resolved path
+  std::string sweep_program;     ///< resolved path
+  std::string part_spec;         ///< resolved path
+  TableSpec table;
+  PlacementSpec placement;
+  std::optional<PartPose> part_pose;  ///< unset: drawn from the seed
+  std::vector<int> clamp_sites;       ///< indices into the part's clamp sites
+  std::vector<ClutterItem> clutter;
+  std::map<std::string, double> lidar_overrides;  ///< LidarSetting fields by name (numbers; booleans as 0/1)
+
+  /// Loads and validates; throws InputError naming the file and the field.
+  static CellSpec load(const std::string& yaml_path);
+};
+
+}  // namespace weldtwin

@@ -1,0 +1,142 @@
+#include "core/part_spec.hpp"
+
+#include <filesystem>
+
+#include "core/error.hpp"
+#include "core/yaml_util.hpp"
+
+namespace weldtwin {
+
+double Seam::length_m() const {
+  return kind == Kind::kLine ? (end - start).norm() : radius_m * std::abs(sweep_rad);
+}
+
+Vec3 Seam::point_at(double s) const {
+  if (kind == Kind::kLine) return start + s * (end - start);
+  const Vec3 r0 = start - center;
+  return center + Eigen::AngleAxisd(s * sweep_rad, axis) * r0;
+}
+
+Vec3 Seam::direction_at(double s) const {
+  if (kind == Kind::kLine) return (end - start).normalized();
+  const Vec3 r = point_at(s) - center;
+  return (sweep_rad >= 0 ? 1.0 : -1.0) * axis.cross(r).normalized();
+}
+
+Vec3 Seam::wall_normal_at(double s) const {
+  if (!wall_normal_radial) return wall_normal;
+  Vec3 r = point_at(s) - center;
+  return (r - r.dot(axis) * axis).normalized();
+}
+
+double PartSpec::footprint_radius_m() const {
+  double r = 0.0;
+  for (const auto& p : footprint) r = std::max(r, p.norm());
+  return r;
+}
+
+namespace {
+
+Seam parse_seam(const YAML::Node& node, size_t index, const std::string& file) {
+  Seam s;
+  s.name = node["name"] ? yaml::text(node, "name", file) : "seam" + std::to_string(index);
+  const std::string where = "seam '" + s.name + "': ";
+  s.start = yaml::vec3(node, "start", file);
+  if (node["center"]) {
+    s.kind = Seam::Kind::kArc;
+    s.center = yaml::vec3(node, "center", file);
+    s.axis = yaml::vec3(node, "axis", file);
+    if (s.axis.norm() < 1e-9) throw input_error(file, where + "zero arc axis");
+    s.axis.normalize();
+    s.sweep_rad = yaml::angle(node, "sweep", file);
+    const Vec3 r = s.start - s.center;
+    s.radius_m = (r - r.dot(s.axis) * s.axis).norm();
+    if (std::abs(r.dot(s.axis)) > 1e-6) throw input_error(file, where + "start is not in the arc's plane");
+    if (auto given = yaml::maybe_length(node, "radius", file); given && std::abs(*given - s.radius_m) > 1e-6)
+      throw input_error(file, where + "radius does not match |start - center|");
+  } else {
+    s.end = yaml::vec3(node, "end", file);
+  }
+  if (s.length_m() < 1e-4) throw input_error(file, where + "zero-length seam");
+  s.normal = yaml::vec3(node, "normal", file);
+  if (s.normal.norm() < 1e-9) throw input_error(file, where + "zero normal");
+  s.normal.normalize();
+  if (node["wall_normal"] && node["wall_normal"].IsScalar() && node["wall_normal"].Scalar() == "radial") {
+    if (s.kind != Seam::Kind::kArc) throw input_error(file, where + "wall_normal 'radial' needs an arc seam");
+    s.wall_normal_radial = true;
+  } else {
+    s.wall_normal = yaml::vec3(node, "wall_normal", file);
+    if (s.wall_normal.norm() < 1e-9) throw input_error(file, where + "zero wall_normal");
+    s.wall_normal.normalize();
+  }
+  // n and m are made orthogonal to the travel direction by the planner; they must not be parallel to it.
+  for (double f : {0.0, 0.5, 1.0}) {
+    const Vec3 d = s.direction_at(f);
+    if (std::abs(d.dot(s.normal)) > 0.999) throw input_error(file, where + "normal is parallel to the travel direction");
+    if (std::abs(d.dot(s.wall_normal_at(f))) > 0.999)
+      throw input_error(file, where + "wall_normal is parallel to the travel direction");
+  }
+  s.work_angle_rad = yaml::angle(node, "work_angle", file);
+  s.travel_angle_rad = yaml::angle(node, "travel_angle", file);
+  if (node["torch_roll_deg"] && node["torch_roll_deg"].IsScalar() && node["torch_roll_deg"].Scalar() == "free") {
+    s.torch_roll_rad.reset();
+  } else {
+    s.torch_roll_rad = yaml::angle(node, "torch_roll", file);
+  }
+  if (auto v = yaml::maybe_number(node, "speed_mm_s", file)) {
+    s.speed_m_s = *v * 1e-3;
+  } else {
+    s.speed_m_s = yaml::number(node, "speed_m_s", file);
+  }
+  if (s.speed_m_s <= 0.0) throw input_error(file, where + "speed must be positive");
+  return s;
+}
+
+}  // namespace
+
+PartSpec PartSpec::load(const std::string& yaml_path) {
+  try {
+    return parse(yaml_path);
+  } catch (const YAML::Exception& e) {
+    throw input_error(yaml_path, "malformed part spec: " + e.msg);
+  }
+}
+
+PartSpec PartSpec::parse(const std::string& yaml_path) {
+  const YAML::Node root = yaml::load_file(yaml_path);
+  PartSpec part;
+  part.source = yaml_path;
+  part.name = yaml::text(root, "name", yaml_path);
+  part.mesh_path = yaml::resolve(yaml_path, yaml::text(root, "model", yaml_path));
+  if (!std::filesystem::is_regular_file(part.mesh_path))
+    throw input_error(yaml_path, "mesh '" + part.mesh_path + "' does not exist");
+  part.height_m = yaml::length(root, "height", yaml_path);
+
+  const YAML::Node fp = root["footprint_m"];
+  if (!fp || !fp.IsSequence() || fp.size() < 3)
+    throw input_error(yaml_path, "field 'footprint_m' must list at least 3 points [x, y]");
+  for (const auto& p : fp) {
+    if (!p.IsSequence() || p.size() != 2) throw input_error(yaml_path, "footprint_m points must be [x, y]");
+    part.footprint.emplace_back(p[0].as<double>(), p[1].as<double>());
+  }
+
+  if (const YAML::Node sites = root["clamp_sites"]) {
+    for (const auto& s : sites) {
+      ClampSite c;
+      c.grip = yaml::vec3(s, "grip", yaml_path);
+      auto o = yaml::numbers(s, "outward", 2, yaml_path);
+      c.outward = Eigen::Vector2d(o[0], o[1]);
+      if (c.outward.norm() < 1e-9) throw input_error(yaml_path, "clamp site with a zero outward direction");
+      c.outward.normalize();
+      part.clamp_sites.push_back(c);
+    }
+  }
+
+  const YAML::Node seams = root["seams"];
+  if (!seams || !seams.IsSequence() || seams.size() == 0)
+    throw input_error(yaml_path, "field 'seams' must list at least one seam");
+  for (size_t i = 0; i < seams.size(); ++i) part.seams.push_back(parse_seam(seams[i], i, yaml_path));
+  return part;
+}
+
+}  // namespace weldtwin

@@ -1,0 +1,61 @@
+// A weldable part: its mesh (part frame), its weld seams and where clamps may hold it (scenes/parts/*.yaml).
+#pragma once
+
+#include <Eigen/Core>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/geometry.hpp"
+
+namespace weldtwin {
+
+/// One weld seam in the part frame. A line runs start -> end; an arc turns about `axis` through `center`
+/// from `start` by `sweep_rad` (counter-clockwise about the axis). DESIGN.md fixes the torch angle convention.
+struct Seam {
+  enum class Kind { kLine, kArc };
+  std::string name;
+  Kind kind = Kind::kLine;
+  Vec3 start = Vec3::Zero(), end = Vec3::Zero();
+  Vec3 center = Vec3::Zero(), axis = Vec3::UnitZ();
+  double radius_m = 0.0, sweep_rad = 0.0;
+  Vec3 normal = Vec3::UnitZ();       ///< n: reference surface normal, into the open side
+  Vec3 wall_normal = Vec3::UnitX();  ///< m: other member's normal, into the open side (lines)
+  bool wall_normal_radial = false;   ///< arcs: m is the outward radial direction at each point
+  double work_angle_rad = 0.0, travel_angle_rad = 0.0;
+  std::optional<double> torch_roll_rad;  ///< nullopt: free, the planner chooses
+  double speed_m_s = 0.0;
+
+  double length_m() const;
+  /// Point at arc-length fraction s in [0, 1].
+  Vec3 point_at(double s) const;
+  /// Unit travel direction at fraction s.
+  Vec3 direction_at(double s) const;
+  /// m at fraction s.
+  Vec3 wall_normal_at(double s) const;
+};
+
+struct ClampSite {
+  Vec3 grip = Vec3::Zero();            ///< pad contact point on a top face, part frame [m]
+  Eigen::Vector2d outward{1.0, 0.0};   ///< horizontal unit direction from the part towards the clamp body
+};
+
+struct PartSpec {
+  std::string name;
+  std::string source;      ///< the YAML file
+  std::string mesh_path;   ///< resolved path of the mesh
+  double height_m = 0.0;
+  std::vector<Eigen::Vector2d> footprint;  ///< outline on the table (part frame), counter-clockwise
+  std::vector<ClampSite> clamp_sites;
+  std::vector<Seam> seams;
+
+  /// Loads and validates a part spec; throws InputError naming the file and the field.
+  static PartSpec load(const std::string& yaml_path);
+  /// Radius of the smallest origin-centred circle holding the footprint.
+  double footprint_radius_m() const;
+
+ private:
+  static PartSpec parse(const std::string& yaml_path);
+};
+
+}  // namespace weldtwin

@@ -1,0 +1,81 @@
+// The robot as a kinematic tree loaded from URDF (urdfdom): forward kinematics for any link, joint limits,
+// and the link geometry that the MuJoCo cell mirrors.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "core/geometry.hpp"
+
+namespace weldtwin {
+
+using JointVector = Eigen::Matrix<double, 6, 1>;
+
+/// One primitive of a link's collision or visual geometry, in the link frame.
+struct LinkGeometry {
+  enum class Type { kBox, kCylinder, kSphere };
+  Type type = Type::kBox;
+  Iso3 T_link_geom = Iso3::Identity();
+  Vec3 size = Vec3::Zero();  ///< box: full extents [m]; cylinder: (radius, length, 0) [m]; sphere: (radius, 0, 0)
+  Eigen::Vector4d rgba{0.7, 0.7, 0.7, 1.0};
+};
+
+struct LinkInertial {
+  Iso3 T_link_com = Iso3::Identity();
+  double mass_kg = 0.0;
+  Mat3 inertia = Mat3::Zero();  ///< about the centre of mass, in the inertial frame [kg m^2]
+};
+
+struct RobotLink {
+  std::string name;
+  int parent = -1;                       ///< index into RobotModel::links(), -1 for the root
+  std::string joint_name;                ///< joint from the parent ("" for the root)
+  Iso3 T_parent_joint = Iso3::Identity();  ///< joint origin in the parent link frame
+  Vec3 axis = Vec3::UnitZ();             ///< joint axis in the child link frame (revolute joints)
+  int q_index = -1;                      ///< index of the actuated joint in q, -1 for fixed joints
+  double lower_rad = 0.0, upper_rad = 0.0, velocity_rad_s = 0.0;
+  std::vector<LinkGeometry> collision;
+  std::vector<LinkGeometry> visual;
+  bool has_inertial = false;
+  LinkInertial inertial;
+};
+
+/// Kinematic tree of a serial robot with revolute and fixed joints. Links are stored parents-first.
+class RobotModel {
+ public:
+  /// Loads a URDF file. Throws InputError naming the file for a malformed file or an unsupported joint.
+  static RobotModel load(const std::string& urdf_path);
+  /// Parses URDF text; `source` names it in error messages.
+  static RobotModel from_string(const std::string& urdf_xml, const std::string& source);
+
+  const std::vector<RobotLink>& links() const { return links_; }
+  const std::string& name() const { return name_; }
+  int dof() const { return static_cast<int>(joint_names_.size()); }
+  const std::vector<std::string>& joint_names() const { return joint_names_; }
+
+  /// Index of a link by name, or -1.
+  int link_index(const std::string& link_name) const;
+  /// Index of a link by name; throws std::out_of_range for an unknown name.
+  int require_link(const std::string& link_name) const;
+
+  /// T_base_link for every link (base = the root link), for joint angles q [rad].
+  void forward_kinematics(const JointVector& q, std::vector<Iso3>& T_base_link) const;
+  /// T_base_link for one link.
+  Iso3 forward_kinematics(const JointVector& q, int link) const;
+
+  /// Joint limits in q order [rad], [rad/s], [rad/s^2].
+  JointVector lower() const { return lower_; }
+  JointVector upper() const { return upper_; }
+  JointVector max_velocity() const { return max_velocity_; }
+  JointVector max_acceleration() const { return max_acceleration_; }
+  bool within_limits(const JointVector& q) const;
+
+ private:
+  std::string name_;
+  std::vector<RobotLink> links_;
+  std::vector<std::string> joint_names_;
+  JointVector lower_, upper_, max_velocity_, max_acceleration_;
+};
+
+}  // namespace weldtwin

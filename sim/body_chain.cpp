@@ -1,0 +1,52 @@
+#include "sim/body_chain.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace weldtwin {
+
+BodyChain::BodyChain(const mjModel* m, int body, const std::vector<int>& qpos_adr) {
+  for (int b = body; b > 0; b = m->body_parentid[b]) {
+    Link link;
+    const mjtNum* q = m->body_quat + 4 * b;
+    link.T_parent_body = make_transform(Vec3(m->body_pos[3 * b], m->body_pos[3 * b + 1], m->body_pos[3 * b + 2]),
+                                        Quat(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix());
+    if (m->body_jntnum[b] > 1) throw std::invalid_argument("BodyChain: a body with several joints");
+    if (m->body_jntnum[b] == 1) {
+      const int j = m->body_jntadr[b];
+      if (m->jnt_type[j] != mjJNT_HINGE) throw std::invalid_argument("BodyChain: only hinge joints");
+      const mjtNum* p = m->jnt_pos + 3 * j;
+      if (p[0] != 0.0 || p[1] != 0.0 || p[2] != 0.0) throw std::invalid_argument("BodyChain: hinge off the origin");
+      const auto it = std::find(qpos_adr.begin(), qpos_adr.end(), m->jnt_qposadr[j]);
+      if (it == qpos_adr.end()) throw std::invalid_argument("BodyChain: a joint that is not the arm's");
+      link.q_index = static_cast<int>(it - qpos_adr.begin());
+      link.axis = Vec3(m->jnt_axis[3 * j], m->jnt_axis[3 * j + 1], m->jnt_axis[3 * j + 2]).normalized();
+      link.axis_is_z = link.axis == Vec3::UnitZ();
+    }
+    links_.push_back(link);
+  }
+  std::reverse(links_.begin(), links_.end());
+}
+
+Iso3 BodyChain::pose(const JointVector& q) const {
+  // Runs once per LiDAR sample: plain 3x3 algebra, and a rotation about z done on two columns.
+  Mat3 R = Mat3::Identity();
+  Vec3 p = Vec3::Zero();
+  for (const Link& l : links_) {
+    p += R * l.T_parent_body.translation();
+    R = R * l.T_parent_body.linear();
+    if (l.q_index < 0) continue;
+    const double c = std::cos(q[l.q_index]), s = std::sin(q[l.q_index]);
+    if (l.axis_is_z) {
+      const Vec3 x = R.col(0), y = R.col(1);
+      R.col(0) = c * x + s * y;
+      R.col(1) = c * y - s * x;
+    } else {
+      R = R * Eigen::AngleAxisd(q[l.q_index], l.axis).toRotationMatrix();
+    }
+  }
+  return make_transform(p, R);
+}
+
+}  // namespace weldtwin

@@ -1,0 +1,30 @@
+// Forward kinematics of one MuJoCo body straight from the compiled model (body offsets and hinge axes), without
+// mj_kinematics: cheap enough to pose the LiDAR at every one of its samples. Hinge joints only.
+#pragma once
+
+#include <vector>
+
+#include <mujoco/mujoco.h>
+
+#include "core/robot_model.hpp"
+
+namespace weldtwin {
+
+class BodyChain {
+ public:
+  /// The chain from the world to `body`; `qpos_adr[i]` is the qpos address of joint i of the arm (URDF order).
+  BodyChain(const mjModel* m, int body, const std::vector<int>& qpos_adr);
+  /// T_world_body for arm joints q.
+  Iso3 pose(const JointVector& q) const;
+
+ private:
+  struct Link {
+    Iso3 T_parent_body;
+    int q_index = -1;  ///< arm joint turning this body, -1 if fixed
+    Vec3 axis = Vec3::UnitZ();
+    bool axis_is_z = false;
+  };
+  std::vector<Link> links_;  ///< root first
+};
+
+}  // namespace weldtwin

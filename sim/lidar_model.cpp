@@ -1,0 +1,82 @@
+#include "sim/lidar_model.hpp"
+
+#include <cmath>
+#include <functional>
+
+#include "core/error.hpp"
+#include "core/geometry.hpp"
+
+namespace weldtwin {
+
+int LidarSetting::samples_per_turn() const { return static_cast<int>(std::lround(sample_rate_hz / turn_rate_hz)); }
+
+LidarSetting LidarSetting::noise_free() const {
+  LidarSetting s = *this;
+  s.noise = s.quantize = s.grazing_dropouts = s.mixed_pixels = s.random_dropouts = false;
+  return s;
+}
+
+void LidarSetting::apply(const std::map<std::string, double>& overrides, const std::string& source) {
+  const std::map<std::string, double*> numbers = {
+      {"turn_rate_hz", &turn_rate_hz},
+      {"sample_rate_hz", &sample_rate_hz},
+      {"min_range_m", &min_range_m},
+      {"max_range_m", &max_range_m},
+      {"noise_sigma_m", &noise_sigma_m},
+      {"noise_sigma_rel", &noise_sigma_rel},
+      {"resolution_m", &resolution_m},
+      {"dropout_start_deg", &dropout_start_deg},
+      {"dropout_full_deg", &dropout_full_deg},
+      {"mixed_pixel_jump_m", &mixed_pixel_jump_m},
+      {"mixed_pixel_probability", &mixed_pixel_probability},
+      {"random_dropout_probability", &random_dropout_probability},
+  };
+  const std::map<std::string, bool*> flags = {{"noise", &noise},
+                                              {"quantize", &quantize},
+                                              {"grazing_dropouts", &grazing_dropouts},
+                                              {"mixed_pixels", &mixed_pixels},
+                                              {"random_dropouts", &random_dropouts}};
+  for (const auto& [key, value] : overrides) {
+    if (auto it = numbers.find(key); it != numbers.end()) {
+      *it->second = value;
+    } else if (auto f = flags.find(key); f != flags.end()) {
+      *f->second = value != 0.0;
+    } else if (key == "seed") {
+      seed = static_cast<uint64_t>(value);
+    } else {
+      throw input_error(source, "unknown lidar setting '" + key + "'");
+    }
+  }
+  if (turn_rate_hz <= 0 || sample_rate_hz < turn_rate_hz || min_range_m < 0 || max_range_m <= min_range_m)
+    throw input_error(source, "lidar: rates must be positive and min_range_m < max_range_m");
+  if (dropout_full_deg <= dropout_start_deg) throw input_error(source, "lidar: dropout_full_deg <= dropout_start_deg");
+}
+
+LidarErrorModel::LidarErrorModel(const LidarSetting& setting, uint64_t stream)
+    : s_(setting), rng_(setting.seed * 0x9E3779B97F4A7C15ULL ^ (stream + 0x632BE59BD9B4E019ULL)) {}
+
+double LidarErrorModel::measure(double range_m, double incidence_rad) {
+  if (range_m > s_.max_range_m) return 0.0;
+  if (s_.random_dropouts && uniform_(rng_) < s_.random_dropout_probability) return 0.0;
+  if (s_.grazing_dropouts) {
+    const double deg = rad2deg(incidence_rad);
+    if (deg >= s_.dropout_full_deg) return 0.0;
+    if (deg > s_.dropout_start_deg &&
+        uniform_(rng_) < (deg - s_.dropout_start_deg) / (s_.dropout_full_deg - s_.dropout_start_deg))
+      return 0.0;
+  }
+  double r = range_m;
+  if (s_.noise) r += (s_.noise_sigma_m + s_.noise_sigma_rel * range_m) * normal_(rng_);
+  if (s_.quantize) r = std::round(r / s_.resolution_m) * s_.resolution_m;
+  if (r < s_.min_range_m || r > s_.max_range_m) return 0.0;
+  return r;
+}
+
+uint8_t LidarErrorModel::quality(double range_m, double incidence_rad) {
+  // Stronger echoes from near, head-on surfaces; the A2 reports a 6-bit quality shifted left by 2.
+  const double strength = std::cos(incidence_rad) / (1.0 + 0.15 * range_m);
+  const int q6 = std::clamp(static_cast<int>(std::lround(63.0 * strength)), 1, 63);
+  return static_cast<uint8_t>(q6 << 2);
+}
+
+}  // namespace weldtwin

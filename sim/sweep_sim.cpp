@@ -1,0 +1,148 @@
+#include "sim/sweep_sim.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include "sim/body_chain.hpp"
+#include "sim/embree_scene.hpp"
+
+namespace weldtwin {
+namespace {
+
+struct TurnWork {
+  const MujocoWorld& world;
+  const SweepProgram& program;
+  const LidarSetting& lidar;
+  const SweepOptions& options;
+  const BodyChain& chain;
+  const EmbreeScene& scene;
+  SweepResult& out;
+  int samples_per_turn;
+};
+
+// Casts turns taken from `next` until none is left, with this thread's own mjData and Embree view.
+void run_turns(const TurnWork& w, std::atomic<size_t>& next, std::atomic<size_t>& done) {
+  DataPtr data = w.world.make_data();
+  EmbreeScene::View view = w.scene.make_view();
+  long current_slice = -1;
+  const double dt = 1.0 / w.lidar.sample_rate_hz;
+  const double step = 2.0 * kPi / w.samples_per_turn;
+  std::vector<double> exact(static_cast<size_t>(w.samples_per_turn));
+  // Beam directions in the scan plane, one per sample slot of a turn.
+  std::vector<Vec3> beam(static_cast<size_t>(w.samples_per_turn));
+  for (int k = 0; k < w.samples_per_turn; ++k) {
+    const double a = static_cast<double>(static_cast<float>(k * step));
+    beam[static_cast<size_t>(k)] = Vec3(std::cos(a), std::sin(a), 0.0);
+  }
+  const size_t turns = w.out.log.turns.size();
+
+  for (size_t turn = next.fetch_add(1); turn < turns; turn = next.fetch_add(1)) {
+    const LidarTurn& lt = w.out.log.turns[turn];
+    LidarErrorModel errors(w.lidar, turn);
+    for (uint32_t k = 0; k < lt.count; ++k) {
+      const size_t i = lt.first + k;
+      LidarSample& s = w.out.log.samples[i];
+      // Sample times are integer multiples of the sample period, as the joint log's are.
+      s.t_s = static_cast<double>(i) * dt;
+      s.angle_rad = static_cast<float>(k * step);
+      const long slice = static_cast<long>(std::floor(s.t_s / w.options.slice_s));
+      if (slice != current_slice) {
+        w.world.set_joints(data.get(), w.program.q(static_cast<double>(slice) * w.options.slice_s));
+        view.update(data.get());
+        current_slice = slice;
+      }
+      const Iso3 T = w.chain.pose(w.program.q(s.t_s));
+      if (w.options.record_sensor_poses) w.out.T_base_lidar[i] = T;
+      // The ray leaves the scan centre in the scan plane, counter-clockwise about +z from +x.
+      const Vec3 dir = T.linear() * beam[k];
+      const RayHit hit = view.cast(T.translation(), dir, 1e-6, w.lidar.max_range_m * 1.05);
+      exact[k] = hit.hit() ? hit.distance_m : 0.0;
+      double r = 0.0;
+      double incidence = 0.0;
+      if (hit.hit()) {
+        incidence = std::acos(std::clamp(-hit.normal.dot(dir), -1.0, 1.0));
+        r = errors.measure(hit.distance_m, incidence);
+      }
+      s.range_m = static_cast<float>(r);
+      s.quality = r > 0.0 ? LidarErrorModel::quality(r, incidence) : 0;
+      w.out.geoms[i] = r > 0.0 ? hit.geom : -1;
+      w.out.labels[i] = r > 0.0 ? w.world.geom_label(hit.geom) : Label::kNone;
+    }
+    // Mixed pixels: where neighbours straddle a depth edge, the beam footprint covers both surfaces and the
+    // A2 reports a range in between.
+    if (w.lidar.mixed_pixels) {
+      for (uint32_t k = 0; k + 1 < lt.count; ++k) {
+        const size_t i = lt.first + k;
+        LidarSample& s = w.out.log.samples[i];
+        const double r0 = exact[k], r1 = exact[k + 1];
+        if (s.range_m <= 0.0f || r1 <= 0.0 || std::abs(r1 - r0) < w.lidar.mixed_pixel_jump_m) continue;
+        if (errors.uniform() >= w.lidar.mixed_pixel_probability) continue;
+        const double blend = errors.uniform();
+        s.range_m = static_cast<float>(r0 + blend * (r1 - r0));
+        w.out.geoms[i] = -1;
+        w.out.labels[i] = Label::kOther;
+      }
+    }
+    done.fetch_add(1, std::memory_order_relaxed);
+  }
+}
+
+}  // namespace
+
+SweepResult simulate_sweep(const MujocoWorld& world, const RobotModel& robot, const SweepProgram& program,
+                           const LidarSetting& lidar, const SweepOptions& options) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  SweepResult out;
+  const double duration =
+      options.max_duration_s > 0.0 ? std::min(options.max_duration_s, program.duration_s()) : program.duration_s();
+  const int per_turn = lidar.samples_per_turn();
+  const size_t turns = static_cast<size_t>(std::floor(duration * lidar.turn_rate_hz));
+
+  ScanLog& log = out.log;
+  log.source = "sim";
+  log.robot = robot.name();
+  log.lidar_frame = options.lidar_link;
+  log.joint_names = robot.joint_names();
+  log.turns.resize(turns);
+  for (size_t t = 0; t < turns; ++t) {
+    log.turns[t].first = static_cast<uint32_t>(t * static_cast<size_t>(per_turn));
+    log.turns[t].count = static_cast<uint32_t>(per_turn);
+    log.turns[t].t_start_s = static_cast<double>(log.turns[t].first) / lidar.sample_rate_hz;
+  }
+  const size_t n = turns * static_cast<size_t>(per_turn);
+  log.samples.resize(n);
+  out.labels.assign(n, Label::kNone);
+  out.geoms.assign(n, -1);
+  if (options.record_sensor_poses) out.T_base_lidar.resize(n);
+
+  // Joint states as the controller would log them, at a fixed rate over the whole sweep.
+  const double log_hz = options.joint_log_hz > 0.0 ? options.joint_log_hz : program.joint_log_hz();
+  const size_t states = static_cast<size_t>(std::floor(duration * log_hz)) + 1;
+  log.joints.resize(states);
+  for (size_t k = 0; k < states; ++k) {
+    log.joints[k].t_s = static_cast<double>(k) / log_hz;
+    log.joints[k].q = program.q(log.joints[k].t_s);
+  }
+
+  const BodyChain chain(world.model(), world.body(options.lidar_link), world.qpos_adr());
+  const EmbreeScene scene(world.model(), world.data());
+  const int threads = std::max(1, options.threads > 0 ? options.threads
+                                                      : static_cast<int>(std::thread::hardware_concurrency()));
+  const TurnWork work{world, program, lidar, options, chain, scene, out, per_turn};
+  std::atomic<size_t> next{0}, done{0};
+  std::vector<std::thread> pool;
+  for (int k = 0; k < threads; ++k) pool.emplace_back(run_turns, std::cref(work), std::ref(next), std::ref(done));
+  while (options.progress && done.load() < turns) {
+    options.progress(static_cast<double>(done.load()) / static_cast<double>(std::max<size_t>(turns, 1)));
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  for (auto& t : pool) t.join();
+  if (options.progress) options.progress(1.0);
+  out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  return out;
+}
+
+}  // namespace weldtwin
