@@ -30,8 +30,11 @@ int main(int argc, char** argv) {
 
   try {
     app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : 2;
+    std::fprintf(stderr, "weldtwin: %s (see --help)\n", e.what());
+    return 2;
   }
   try {
     if (sc->parsed()) {

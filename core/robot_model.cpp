@@ -4,6 +4,7 @@
 #include <map>
 #include <sstream>
 #include <stdexcept>
+#include <console_bridge/console.h>
 #include <urdf_parser/urdf_parser.h>
 
 #include "core/error.hpp"
@@ -59,6 +60,8 @@ RobotModel RobotModel::load(const std::string& urdf_path) {
 
 RobotModel RobotModel::from_string(const std::string& urdf_xml, const std::string& source) {
   if (urdf_xml.find_first_not_of(" \t\r\n") == std::string::npos) throw input_error(source, "empty URDF");
+  // urdfdom reports parse errors on stderr through console_bridge; weldtwin reports them itself, in one line.
+  console_bridge::setLogLevel(console_bridge::CONSOLE_BRIDGE_LOG_NONE);
   urdf::ModelInterfaceSharedPtr urdf = urdf::parseURDF(urdf_xml);
   if (!urdf) throw input_error(source, "not a valid URDF (urdfdom could not parse it)");
   urdf::LinkConstSharedPtr root = urdf->getRoot();

@@ -84,14 +84,6 @@ std::string part_problem(const CellSpec& cell, const PartSpec& part, const Iso3&
     return why.str();
   }
   if ((T.linear().col(2) - Vec3::UnitZ()).norm() > 1e-6) return "part must stand upright on the table (yaw only)";
-  for (const auto& p : part.footprint) {
-    const Vec2 b = xy(T * Vec3(p.x(), p.y(), 0.0));
-    if (!on_table(cell.table, b)) {
-      why << "part hangs off the table at (" << b.x() << ", " << b.y() << ") m";
-      return why.str();
-    }
-    if (b.norm() < cell.placement.base_keepout_m) return "part overlaps the robot base";
-  }
   const PlacementSpec& pl = cell.placement;
   const double bearing = std::atan2(T.translation().y(), T.translation().x());
   if (std::abs(bearing) > pl.max_bearing_rad + 1e-9) {
@@ -107,6 +99,14 @@ std::string part_problem(const CellSpec& cell, const PartSpec& part, const Iso3&
         return why.str();
       }
     }
+  }
+  for (const auto& p : part.footprint) {
+    const Vec2 b = xy(T * Vec3(p.x(), p.y(), 0.0));
+    if (!on_table(cell.table, b)) {
+      why << "part hangs off the table at (" << b.x() << ", " << b.y() << ") m";
+      return why.str();
+    }
+    if (b.norm() < cell.placement.base_keepout_m) return "part overlaps the robot base";
   }
   return "";
 }

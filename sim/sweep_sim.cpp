@@ -80,8 +80,9 @@ void run_turns(const TurnWork& w, std::atomic<size_t>& next, std::atomic<size_t>
         const double r0 = exact[k], r1 = exact[k + 1];
         if (s.range_m <= 0.0f || r1 <= 0.0 || std::abs(r1 - r0) < w.lidar.mixed_pixel_jump_m) continue;
         if (errors.uniform() >= w.lidar.mixed_pixel_probability) continue;
-        const double blend = errors.uniform();
-        s.range_m = static_cast<float>(r0 + blend * (r1 - r0));
+        double blend = r0 + errors.uniform() * (r1 - r0);
+        if (w.lidar.quantize) blend = std::round(blend / w.lidar.resolution_m) * w.lidar.resolution_m;
+        s.range_m = static_cast<float>(blend);
         w.out.geoms[i] = -1;
         w.out.labels[i] = Label::kOther;
       }

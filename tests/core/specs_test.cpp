@@ -1,0 +1,103 @@
+// Part and cell specs: the shipped scenes load, and malformed ones fail with the file and field named.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "core/cell_spec.hpp"
+#include "core/error.hpp"
+#include "core/part_spec.hpp"
+#include "tests/test_support.hpp"
+
+namespace weldtwin {
+namespace {
+
+std::string write_temp(const std::string& name, const std::string& text) {
+  const auto dir = std::filesystem::temp_directory_path() / "weldtwin_specs_test";
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / name).string();
+  std::ofstream(path) << text;
+  return path;
+}
+
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(PartSpec, ShippedPartsLoadWithTheirSeams) {
+  const PartSpec tube = PartSpec::load(test::repo("scenes/parts/tube_on_plate.yaml"));
+  ASSERT_EQ(tube.seams.size(), 4u);
+  for (const Seam& s : tube.seams) {
+    EXPECT_NEAR(s.length_m(), 0.0508, 1e-9);
+    // The seam lies at the tube's foot, on the plate's top face.
+    EXPECT_NEAR(s.start.z(), 0.008, 1e-12);
+    EXPECT_NEAR(s.normal.dot(s.wall_normal), 0.0, 1e-12);
+    EXPECT_NEAR(s.work_angle_rad, deg2rad(45), 1e-12);
+    EXPECT_FALSE(s.torch_roll_rad.has_value());
+    EXPECT_NEAR(s.speed_m_s, 0.008, 1e-12);
+  }
+  const PartSpec round = PartSpec::load(test::repo("scenes/parts/round_on_plate.yaml"));
+  ASSERT_EQ(round.seams.size(), 1u);
+  const Seam& foot = round.seams[0];
+  EXPECT_EQ(foot.kind, Seam::Kind::kArc);
+  EXPECT_NEAR(foot.length_m(), 2 * kPi * 0.03015, 1e-9);
+  // Every point of the circle is at the tube radius, and m points radially outwards.
+  for (double f : {0.0, 0.3, 0.77}) {
+    EXPECT_NEAR((foot.point_at(f) - foot.center).norm(), 0.03015, 1e-12);
+    EXPECT_NEAR(foot.wall_normal_at(f).dot((foot.point_at(f) - foot.center).normalized()), 1.0, 1e-12);
+    EXPECT_NEAR(foot.direction_at(f).dot(foot.wall_normal_at(f)), 0.0, 1e-12);
+  }
+  const PartSpec tee = PartSpec::load(test::repo("scenes/parts/tube_tee.yaml"));
+  EXPECT_EQ(tee.seams.size(), 3u);
+  EXPECT_GE(tee.clamp_sites.size(), 2u);
+}
+
+TEST(PartSpec, BadSpecsAreRejected) {
+  const std::string stl = test::repo("scenes/parts/tube_on_plate.stl");
+  const std::string head = "name: p\nmodel: " + stl + "\nheight_m: 0.1\nfootprint_m: [[0,0],[1,0],[0,1]]\n";
+  const std::string seam = "seams:\n  - name: s\n    start: [0, 0, 0]\n";
+  const std::string tail = "    normal: [0, 0, 1]\n    wall_normal: [0, -1, 0]\n    work_angle_deg: 45\n"
+                           "    travel_angle_deg: 0\n    torch_roll_deg: free\n    speed_mm_s: 8\n";
+  EXPECT_NE(error_of([&] { PartSpec::load(write_temp("zero.yaml", head + seam + "    end: [0, 0, 0]\n" + tail)); })
+                .find("zero-length"),
+            std::string::npos);
+  const std::string parallel = head + seam + "    end: [0, 0, 0.05]\n" + tail;  // travel along n
+  EXPECT_NE(error_of([&] { PartSpec::load(write_temp("parallel.yaml", parallel)); }).find("parallel"), std::string::npos);
+  EXPECT_NE(error_of([&] { PartSpec::load(write_temp("bad.yaml", "name: [unclosed\n")); }).find("bad.yaml"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] { PartSpec::load(write_temp("empty.yaml", "")); }).find("empty"), std::string::npos);
+  const std::string missing_mesh = "name: p\nmodel: nowhere.stl\nheight_m: 0.1\n";
+  EXPECT_NE(error_of([&] { PartSpec::load(write_temp("nomesh.yaml", missing_mesh)); }).find("nowhere.stl"),
+            std::string::npos);
+  const std::string letters = head + seam + "    end: [0, x, 0]\n" + tail;
+  EXPECT_NE(error_of([&] { PartSpec::load(write_temp("letters.yaml", letters)); }).find("letters.yaml"),
+            std::string::npos);
+}
+
+TEST(CellSpec, DefaultCellLoadsAndBadOnesAreRejected) {
+  const CellSpec cell = CellSpec::load(test::repo("scenes/cells/default.yaml"));
+  EXPECT_TRUE(cell.part_pose.has_value());
+  EXPECT_EQ(cell.clamp_sites.size(), 2u);
+  EXPECT_NEAR(cell.table.x_max_m - cell.table.x_min_m, 0.8, 1e-12);
+  EXPECT_NEAR(cell.table.y_max_m - cell.table.y_min_m, 1.2, 1e-12);
+  const std::string dir = test::repo("scenes/cells/");
+  EXPECT_NE(error_of([&] { CellSpec::load(write_temp("c1.yaml", "name: x\nenvironment: " + dir + "nope.xml\n")); })
+                .find("nope.xml"),
+            std::string::npos);
+  const std::string ok_head = "environment: " + dir + "default.xml\nrobot: " + test::repo("scenes/robots/aubo_i5.urdf") +
+                              "\nsweep: " + test::repo("scenes/sweeps/default.yaml") + "\n";
+  EXPECT_NE(error_of([&] { CellSpec::load(write_temp("c2.yaml", ok_head)); }).find("part"), std::string::npos);
+  EXPECT_NE(error_of([&] {
+              CellSpec::load(write_temp("c3.yaml", ok_head + "part: {spec: " + test::repo("scenes/parts/tube_tee.yaml") +
+                                                       ", x_m: 0.4}\n"));
+            }).find("both x and y"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace weldtwin

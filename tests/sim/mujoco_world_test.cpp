@@ -1,0 +1,76 @@
+// The MuJoCo cell mirrors the URDF: forward kinematics agree, and geoms are labelled by what they belong to.
+#include "sim/mujoco_world.hpp"
+
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include "sim/body_chain.hpp"
+#include "tests/test_support.hpp"
+
+namespace weldtwin {
+namespace {
+
+Iso3 body_pose(const mjData* d, int b) {
+  Mat3 R;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) R(r, c) = d->xmat[9 * b + 3 * r + c];
+  return make_transform(Vec3(d->xpos[3 * b], d->xpos[3 * b + 1], d->xpos[3 * b + 2]), R);
+}
+
+TEST(MujocoWorld, UrdfKinematicsEqualMujocoBodyPosesFor1000Configurations) {
+  test::Cell cell;
+  const MujocoWorld& w = *cell.world;
+  std::mt19937_64 rng(2024);
+  std::vector<Iso3> fk;
+  double worst_p = 0.0, worst_r = 0.0;
+  for (int k = 0; k < 1000; ++k) {
+    const JointVector q = test::random_q(cell.robot, rng);
+    w.set_joints(w.data(), q);
+    cell.robot.forward_kinematics(q, fk);
+    for (size_t l = 0; l < fk.size(); ++l) {
+      const Iso3 T_mj = body_pose(w.data(), w.body(cell.robot.links()[l].name));
+      worst_p = std::max(worst_p, (T_mj.translation() - fk[l].translation()).norm());
+      worst_r = std::max(worst_r, (T_mj.linear() - fk[l].linear()).cwiseAbs().maxCoeff());
+    }
+  }
+  EXPECT_LT(worst_p, 1e-9);
+  EXPECT_LT(worst_r, 1e-9);
+}
+
+TEST(MujocoWorld, BodyChainEqualsMjKinematics) {
+  test::Cell cell;
+  const MujocoWorld& w = *cell.world;
+  for (const char* link : {"lidar", "tcp", "shoulder_Link"}) {
+    const BodyChain chain(w.model(), w.body(link), w.qpos_adr());
+    std::mt19937_64 rng(11);
+    for (int k = 0; k < 200; ++k) {
+      const JointVector q = test::random_q(cell.robot, rng);
+      w.set_joints(w.data(), q);
+      const Iso3 a = chain.pose(q), b = body_pose(w.data(), w.body(link));
+      EXPECT_LT((a.translation() - b.translation()).norm(), 1e-12) << link;
+      EXPECT_LT((a.linear() - b.linear()).cwiseAbs().maxCoeff(), 1e-12) << link;
+    }
+  }
+}
+
+TEST(MujocoWorld, GeomsAreLabelledByOwner) {
+  test::Cell cell;
+  const mjModel* m = cell.world->model();
+  auto label_of = [&](const char* geom) { return cell.world->geom_label(mj_name2id(m, mjOBJ_GEOM, geom)); };
+  EXPECT_EQ(label_of("part"), Label::kPart);
+  EXPECT_EQ(label_of("table_top"), Label::kTable);
+  EXPECT_EQ(label_of("table_leg_1"), Label::kTable);
+  EXPECT_EQ(label_of("clamp0_pad"), Label::kClamp);
+  EXPECT_EQ(label_of("clamp1_handle"), Label::kClamp);
+  EXPECT_EQ(label_of("wrist2_Link_0"), Label::kRobot);
+  EXPECT_EQ(label_of("lidar_0"), Label::kRobot);
+  EXPECT_EQ(label_of("floor"), Label::kOther);
+  EXPECT_EQ(label_of("clutter0_box"), Label::kOther);
+  // Every geom got a label, and all five kinds occur.
+  std::set<Label> seen(cell.world->geom_labels().begin(), cell.world->geom_labels().end());
+  EXPECT_EQ(seen.size(), 5u);
+}
+
+}  // namespace
+}  // namespace weldtwin

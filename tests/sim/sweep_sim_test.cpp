@@ -1,0 +1,205 @@
+// A simulated sweep: every exact point lies on the geom it is labelled with (checked with geometry written
+// independently of the ray casters), the part gets enough points, the noise model has the stated statistics,
+// and a seed reproduces a sweep bit for bit.
+#include "sim/sweep_sim.hpp"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "sim/seam_coverage.hpp"
+#include "tests/test_support.hpp"
+
+namespace weldtwin {
+namespace {
+
+// ---- independent geometry: distance from a point to a primitive's surface, in the geom frame ----
+double box_surface(const Vec3& p, const Vec3& s) {
+  const Vec3 q = p.cwiseAbs() - s;
+  return std::abs(q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0));
+}
+double cylinder_surface(const Vec3& p, double r, double h) {
+  const Eigen::Vector2d q(std::hypot(p.x(), p.y()) - r, std::abs(p.z()) - h);
+  return std::abs(q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0));
+}
+double triangle_distance(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  // Closest point on a triangle by its Voronoi regions.
+  const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return (p - a).norm();
+  const Vec3 bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return (p - b).norm();
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (p - (a + d1 / (d1 - d3) * ab)).norm();
+  const Vec3 cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return (p - c).norm();
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (p - (a + d2 / (d2 - d6) * ac)).norm();
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
+    return (p - (b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b))).norm();
+  const double denom = 1.0 / (va + vb + vc);
+  return (p - (a + ab * (vb * denom) + ac * (vc * denom))).norm();
+}
+std::vector<std::array<Vec3, 3>> read_binary_stl(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  char header[80];
+  uint32_t n = 0;
+  in.read(header, 80);
+  in.read(reinterpret_cast<char*>(&n), 4);
+  std::vector<std::array<Vec3, 3>> tris(n);
+  for (auto& t : tris) {
+    float f[12];
+    uint16_t attr;
+    in.read(reinterpret_cast<char*>(f), sizeof f);
+    in.read(reinterpret_cast<char*>(&attr), 2);
+    for (int v = 0; v < 3; ++v) t[static_cast<size_t>(v)] = Vec3(f[3 + 3 * v], f[4 + 3 * v], f[5 + 3 * v]);
+  }
+  return tris;
+}
+
+Iso3 geom_pose(const mjData* d, int g) {
+  Mat3 R;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) R(r, c) = d->geom_xmat[9 * g + 3 * r + c];
+  return make_transform(Vec3(d->geom_xpos[3 * g], d->geom_xpos[3 * g + 1], d->geom_xpos[3 * g + 2]), R);
+}
+
+Vec3 sample_point(const SweepResult& r, size_t i) {
+  const LidarSample& s = r.log.samples[i];
+  return r.T_base_lidar[i] * Vec3(s.range_m * std::cos(s.angle_rad), s.range_m * std::sin(s.angle_rad), 0.0);
+}
+
+TEST(SweepSim, NoiseFreePointsLieOnTheirLabelledGeoms) {
+  test::Cell cell("scenes/cells/round_on_plate.yaml");
+  const MujocoWorld& w = *cell.world;
+  const mjModel* m = w.model();
+  const SweepProgram program = SweepProgram::load(cell.spec.sweep_program, cell.robot);
+  SweepOptions options;
+  options.record_sensor_poses = true;
+  options.max_duration_s = 45.0;  // three passes and their transitions
+  const SweepResult r = simulate_sweep(w, cell.robot, program, LidarSetting().noise_free(), options);
+
+  // The part mesh as the file has it, placed at the layout's pose.
+  std::vector<std::array<Vec3, 3>> part = read_binary_stl(cell.part.mesh_path);
+  for (auto& t : part)
+    for (auto& v : t) v = cell.layout.T_base_part * v;
+
+  DataPtr d = w.make_data();
+  double worst[6] = {0, 0, 0, 0, 0, 0};
+  size_t counted[6] = {0, 0, 0, 0, 0, 0};
+  for (size_t i = 0; i < r.log.samples.size(); ++i) {
+    const int g = r.geoms[i];
+    if (g < 0) continue;
+    // Moving geoms are posed at the start of the sample's slice; static ones never move.
+    const double t_slice = std::floor(r.log.samples[i].t_s / options.slice_s) * options.slice_s;
+    if (m->body_weldid[m->geom_bodyid[g]] != 0 || counted[0] == 0) w.set_joints(d.get(), program.q(t_slice));
+    const Vec3 p = sample_point(r, i);
+    const Iso3 T_geom_world = geom_pose(d.get(), g).inverse();
+    const Vec3 local = T_geom_world * p;
+    const mjtNum* s = m->geom_size + 3 * g;
+    double dist = 1e9;
+    switch (m->geom_type[g]) {
+      case mjGEOM_BOX: dist = box_surface(local, Vec3(s[0], s[1], s[2])); break;
+      case mjGEOM_CYLINDER: dist = cylinder_surface(local, s[0], s[1]); break;
+      case mjGEOM_PLANE: dist = std::abs(local.z()); break;
+      case mjGEOM_MESH:
+        for (const auto& t : part) dist = std::min(dist, triangle_distance(p, t[0], t[1], t[2]));
+        break;
+      default: FAIL() << "unexpected geom type " << m->geom_type[g];
+    }
+    const size_t label = static_cast<size_t>(r.labels[i]);
+    ASSERT_EQ(r.labels[i], w.geom_label(g));
+    worst[label] = std::max(worst[label], dist);
+    ++counted[label];
+    ++counted[0];
+  }
+  std::printf("points checked: part %zu (worst %.1e m), table %zu (%.1e), clamp %zu (%.1e), robot %zu (%.1e), "
+              "other %zu (%.1e)\n",
+              counted[1], worst[1], counted[2], worst[2], counted[3], worst[3], counted[4], worst[4], counted[5],
+              worst[5]);
+  for (int l = 1; l < 6; ++l) {
+    EXPECT_GT(counted[l], 100u) << label_name(static_cast<Label>(l));
+    EXPECT_LT(worst[l], 1e-6) << label_name(static_cast<Label>(l));
+  }
+}
+
+TEST(SweepSim, EveryPartGetsEnoughPointsAndItsSeamsAreSeen) {
+  for (const char* file : {"scenes/cells/default.yaml", "scenes/cells/round_on_plate.yaml",
+                           "scenes/cells/tube_tee.yaml"}) {
+    test::Cell cell(file);
+    const SweepProgram program = SweepProgram::load(cell.spec.sweep_program, cell.robot);
+    const SweepResult r = simulate_sweep(*cell.world, cell.robot, program, LidarSetting().noise_free());
+    std::vector<Vec3> part_points;
+    SweepOptions none;
+    for (size_t i = 0; i < r.labels.size(); ++i) {
+      if (r.labels[i] != Label::kPart) continue;
+      const LidarSample& s = r.log.samples[i];
+      JointVector q = program.q(s.t_s);
+      const Iso3 T = cell.robot.forward_kinematics(q, cell.robot.require_link("lidar"));
+      part_points.push_back(T * Vec3(s.range_m * std::cos(s.angle_rad), s.range_m * std::sin(s.angle_rad), 0.0));
+    }
+    std::printf("%s: %zu part points;", cell.part.name.c_str(), part_points.size());
+    EXPECT_GT(part_points.size(), 2000u) << file;
+    for (const SeamCoverage& c : seam_coverage(cell.part, cell.layout.T_base_part, part_points)) {
+      std::printf(" %s %.0f %%", c.seam.c_str(), 100 * c.fraction());
+      EXPECT_GT(c.fraction(), 0.5) << file << " seam " << c.seam;
+    }
+    std::printf("\n");
+  }
+}
+
+TEST(SweepSim, RangeNoiseHasTheStatedSigmaAndSeedsReproduce) {
+  test::Cell cell;
+  const SweepProgram program = SweepProgram::load(cell.spec.sweep_program, cell.robot);
+  SweepOptions options;
+  options.max_duration_s = 10.0;
+  LidarSetting noisy;
+  noisy.mixed_pixels = noisy.grazing_dropouts = noisy.random_dropouts = false;
+  noisy.quantize = false;
+  const SweepResult exact = simulate_sweep(*cell.world, cell.robot, program, noisy.noise_free(), options);
+  const SweepResult a = simulate_sweep(*cell.world, cell.robot, program, noisy, options);
+  // Normalised residuals (measured - exact) / sigma(range) must be standard normal.
+  double sum = 0, sum2 = 0;
+  size_t n = 0;
+  for (size_t i = 0; i < a.log.samples.size(); ++i) {
+    const double r0 = exact.log.samples[i].range_m, r1 = a.log.samples[i].range_m;
+    if (r0 <= 0 || r1 <= 0) continue;
+    const double z = (r1 - r0) / (noisy.noise_sigma_m + noisy.noise_sigma_rel * r0);
+    sum += z;
+    sum2 += z * z;
+    ++n;
+  }
+  ASSERT_GT(n, 10000u);
+  const double mean = sum / static_cast<double>(n), sd = std::sqrt(sum2 / static_cast<double>(n) - mean * mean);
+  EXPECT_NEAR(mean, 0.0, 0.03);
+  EXPECT_NEAR(sd, 1.0, 0.03);
+
+  // Full default model, twice with one seed and once with another, on different thread counts.
+  LidarSetting full;
+  full.seed = 42;
+  options.threads = 1;
+  const SweepResult b1 = simulate_sweep(*cell.world, cell.robot, program, full, options);
+  options.threads = 2;
+  const SweepResult b2 = simulate_sweep(*cell.world, cell.robot, program, full, options);
+  full.seed = 43;
+  const SweepResult c = simulate_sweep(*cell.world, cell.robot, program, full, options);
+  size_t differ = 0, mixed = 0, dropped = 0;
+  for (size_t i = 0; i < b1.log.samples.size(); ++i) {
+    ASSERT_EQ(b1.log.samples[i].range_m, b2.log.samples[i].range_m) << i;
+    differ += b1.log.samples[i].range_m != c.log.samples[i].range_m;
+    mixed += b1.labels[i] == Label::kOther && b1.geoms[i] < 0;
+    dropped += b1.log.samples[i].range_m == 0 && exact.log.samples[i].range_m > 0;
+    // Quantised to the A2's 0.25 mm steps.
+    const double steps = b1.log.samples[i].range_m / 0.00025;
+    EXPECT_NEAR(steps, std::round(steps), 1e-2);
+  }
+  EXPECT_GT(differ, b1.log.samples.size() / 4);
+  EXPECT_GT(mixed, 10u);
+  EXPECT_GT(dropped, 10u);
+}
+
+}  // namespace
+}  // namespace weldtwin
