@@ -114,7 +114,11 @@ int run_scan(const ScanCommand& cmd) {
   truth["label_counts"] = counts;
   for (const SeamCoverage& c : seam_coverage(part, layout.T_base_part, part_points))
     truth["seam_coverage"].push_back(
-        {{"seam", c.seam}, {"seen_fraction", c.fraction()}, {"stations", c.stations}, {"points_near", c.points_near}});
+        {{"seam", c.seam},
+         {"seen_fraction", c.fraction()},
+         {"seen_one_member_fraction", c.fraction_one()},
+         {"stations", c.stations},
+         {"points_near", c.points_near}});
   truth["sweep"] = {{"duration_s", program.duration_s()},
                     {"samples", sweep.log.samples.size()},
                     {"returns", sweep.log.valid_samples()},

@@ -50,3 +50,49 @@ Iso3 BodyChain::pose(const JointVector& q) const {
 }
 
 }  // namespace weldtwin
+
+namespace weldtwin {
+
+Iso3 BodyChain::pose(const JointVector& q, Cache& cache) const {
+  const size_t n = links_.size();
+  const bool fresh = cache.R.size() != n + 1;
+  if (fresh) {
+    cache.R.assign(n + 1, Mat3::Identity());
+    cache.p.assign(n + 1, Vec3::Zero());
+  }
+  // The last link whose joint changed bounds what must be recomputed; a fresh cache recomputes everything.
+  size_t dirty = n - 1;
+  bool any = fresh;
+  if (!fresh) {
+    dirty = 0;
+    for (size_t k = 0; k < n; ++k) {
+      const int j = links_[k].q_index;
+      if (j >= 0 && q[j] != cache.q[j]) {
+        dirty = k;
+        any = true;
+      }
+    }
+  }
+  if (!any) return make_transform(cache.p[0], cache.R[0]);
+  for (size_t k = dirty + 1; k-- > 0;) {
+    // S_k = A_k Rot_k(q) S_{k+1}
+    const Link& l = links_[k];
+    Mat3 R = l.T_parent_body.linear();
+    if (l.q_index >= 0) {
+      const double c = std::cos(q[l.q_index]), s = std::sin(q[l.q_index]);
+      if (l.axis_is_z) {
+        const Vec3 x = R.col(0), y = R.col(1);
+        R.col(0) = c * x + s * y;
+        R.col(1) = c * y - s * x;
+      } else {
+        R = R * Eigen::AngleAxisd(q[l.q_index], l.axis).toRotationMatrix();
+      }
+    }
+    cache.p[k] = l.T_parent_body.translation() + R * cache.p[k + 1];
+    cache.R[k] = R * cache.R[k + 1];
+  }
+  cache.q = q;
+  return make_transform(cache.p[0], cache.R[0]);
+}
+
+}  // namespace weldtwin

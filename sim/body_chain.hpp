@@ -2,6 +2,7 @@
 // mj_kinematics: cheap enough to pose the LiDAR at every one of its samples. Hinge joints only.
 #pragma once
 
+#include <limits>
 #include <vector>
 
 #include <mujoco/mujoco.h>
@@ -16,6 +17,17 @@ class BodyChain {
   BodyChain(const mjModel* m, int body, const std::vector<int>& qpos_adr);
   /// T_world_body for arm joints q.
   Iso3 pose(const JointVector& q) const;
+
+  /// Products of the chain from each link to the end, kept between calls: when only the first joints change
+  /// (a base-joint pass), only their part of the product is recomputed. One per thread.
+  struct Cache {
+    JointVector q = JointVector::Constant(std::numeric_limits<double>::quiet_NaN());
+    std::vector<Mat3> R;  ///< rotation of the suffix product starting at link k
+    std::vector<Vec3> p;  ///< its translation
+  };
+  /// The same pose as pose(q), reusing `cache`; equal to it to rounding (the products are associated
+  /// differently).
+  Iso3 pose(const JointVector& q, Cache& cache) const;
 
  private:
   struct Link {

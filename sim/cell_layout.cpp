@@ -116,6 +116,12 @@ std::string part_problem(const CellSpec& cell, const PartSpec& part, const Iso3&
 std::string layout_problem(const CellSpec& cell, const PartSpec& part, const CellLayout& layout) {
   if (std::string p = part_problem(cell, part, layout.T_base_part); !p.empty()) return p;
   std::vector<Disc> taken;
+  for (size_t i = 0; i < layout.clamps.size(); ++i)
+    for (size_t j = 0; j < i; ++j)
+      if ((layout.clamps[i].T_base_clamp.translation() - layout.clamps[j].T_base_clamp.translation()).norm() <
+          2 * ClampDims::kPadRadius + 0.005)
+        return "clamps at sites " + std::to_string(layout.clamps[j].site) + " and " +
+               std::to_string(layout.clamps[i].site) + " press on the same spot";
   for (const auto& c : layout.clamps) {
     const Vec2 o = xy(c.T_base_clamp.translation());
     const Vec2 out = xy(c.T_base_clamp.linear().col(0));

@@ -33,6 +33,7 @@ struct ClampDims {
   static constexpr double kBaseEnd = 0.14;
   static constexpr double kReach = 0.23;       ///< farthest point (handle tip) from the pad [m]
   static constexpr double kHalfWidth = 0.03;
+  static constexpr double kPadRadius = 0.011;  ///< rubber pad on the part
 };
 
 /// The layout given by the cell file (seed unset) or drawn from the seed: part pose, 2-4 clamps, 0-3 clutter

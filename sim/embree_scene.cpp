@@ -8,21 +8,24 @@
 
 namespace weldtwin {
 
-// One geom in its part's frame: its pose there, its kind, and for triangle geometry the vertices in double.
+// One geom in its part's frame (the world for static geoms, its body for moving ones): its pose there, its
+// kind, and for triangle geometry the vertices in double.
 struct EmbreeScene::Shape {
   int geom = -1;
   int type = mjGEOM_BOX;
   Iso3 T_part_geom = Iso3::Identity();
   Iso3 T_geom_part = Iso3::Identity();
+  double bound_radius = 0.0;  ///< sphere about the geom origin holding the geom
   double size[3] = {0, 0, 0};
   std::vector<Vec3> vertices;              ///< triangles only, in the part frame
   std::vector<Eigen::Vector3i> triangles;  ///< triangles only
 };
 
-struct EmbreeScene::Part {
-  int body = 0;  ///< MuJoCo body whose frame this part uses; 0 for the static world
-  RTCScene scene = nullptr;
-  std::vector<Shape> shapes;  ///< by Embree geometry id
+struct EmbreeScene::MovingBody {
+  int body = 0;
+  std::vector<Shape> shapes;
+  Vec3 centre = Vec3::Zero();  ///< bounding sphere of all shapes, body frame
+  double radius = 0.0;
 };
 
 namespace {
@@ -30,9 +33,7 @@ namespace {
 // The intersection context carries the ray in double, so that user geometry is intersected exactly.
 struct Context {
   RTCIntersectContext embree;
-  const EmbreeScene::View* view;
   Vec3 origin, dir;
-  const std::vector<Iso3>* T_part_world;
 };
 
 // Exact intersection of a ray given in the shape's part frame.
@@ -98,9 +99,8 @@ void user_intersect(const RTCIntersectFunctionNArguments* args) {
   const auto* ctx = reinterpret_cast<const Context*>(args->context);
   RTCRayN* rays = RTCRayHitN_RayN(args->rayhit, args->N);
   RTCHitN* hits = RTCRayHitN_HitN(args->rayhit, args->N);
-  const unsigned inst = args->context->instID[0];
-  const Iso3& T_part_world = (*ctx->T_part_world)[inst];
-  const Vec3 o = T_part_world * ctx->origin, d = T_part_world.linear() * ctx->dir;
+  const Vec3& o = ctx->origin;
+  const Vec3& d = ctx->dir;
   for (unsigned i = 0; i < args->N; ++i) {
     if (!args->valid[i]) continue;
     const double t_min = RTCRayN_tnear(rays, args->N, i);
@@ -115,15 +115,15 @@ void user_intersect(const RTCIntersectFunctionNArguments* args) {
     RTCHitN_v(hits, args->N, i) = 0.0f;
     RTCHitN_primID(hits, args->N, i) = args->primID;
     RTCHitN_geomID(hits, args->N, i) = args->geomID;
-    RTCHitN_instID(hits, args->N, i, 0) = inst;
+    RTCHitN_instID(hits, args->N, i, 0) = args->context->instID[0];
   }
 }
 
 void user_occluded(const RTCOccludedFunctionNArguments* args) {
   const auto* s = static_cast<const EmbreeScene::Shape*>(args->geometryUserPtr);
   const auto* ctx = reinterpret_cast<const Context*>(args->context);
-  const Iso3& T_part_world = (*ctx->T_part_world)[args->context->instID[0]];
-  const Vec3 o = T_part_world * ctx->origin, d = T_part_world.linear() * ctx->dir;
+  const Vec3& o = ctx->origin;
+  const Vec3& d = ctx->dir;
   for (unsigned i = 0; i < args->N; ++i) {
     if (!args->valid[i]) continue;
     const double t = intersect_shape(*s, 0, o, d, RTCRayN_tnear(args->ray, args->N, i), nullptr);
@@ -170,126 +170,120 @@ void triangulate(const mjModel* m, int g, EmbreeScene::Shape& s) {
   }
 }
 
+// Radius of a sphere about the geom's origin that holds it.
+double bounding_radius(const EmbreeScene::Shape& s) {
+  if (!s.vertices.empty()) {
+    double r = 0.0;
+    for (const Vec3& v : s.vertices) r = std::max(r, (v - s.T_part_geom.translation()).norm());
+    return r;
+  }
+  switch (s.type) {
+    case mjGEOM_PLANE: return 1e3;
+    case mjGEOM_SPHERE: return s.size[0];
+    case mjGEOM_CAPSULE: return s.size[0] + s.size[1];
+    case mjGEOM_CYLINDER: return std::hypot(s.size[0], s.size[1]);
+    default: return Vec3(s.size[0], s.size[1], s.size[2]).norm();
+  }
+}
+
 }  // namespace
 
 EmbreeScene::EmbreeScene(const mjModel* m, const mjData* d) {
   device_ = rtcNewDevice("threads=1,verbose=0");
   if (!device_) throw std::runtime_error("Embree: cannot create a device");
+  static_ = rtcNewScene(device_);
 
-  // Group geoms: static (welded to the world) into part 0, others by body.
-  std::vector<int> part_of_body(static_cast<size_t>(m->nbody), -1);
-  parts_.push_back(std::make_unique<Part>());
-  part_of_body[0] = 0;
+  std::vector<int> moving_of_body(static_cast<size_t>(m->nbody), -1);
   for (int g = 0; g < m->ngeom; ++g) {
+    if (m->geom_type[g] == mjGEOM_HFIELD)
+      throw std::runtime_error("Embree scene: height fields are not supported");
     const int body = m->geom_bodyid[g];
     const bool is_static = m->body_weldid[body] == 0;
-    int& p = part_of_body[static_cast<size_t>(is_static ? 0 : body)];
-    if (p < 0) {
-      p = static_cast<int>(parts_.size());
-      parts_.push_back(std::make_unique<Part>());
-      parts_.back()->body = body;
-    }
-    Shape s;
-    s.geom = g;
-    s.type = m->geom_type[g];
-    for (int k = 0; k < 3; ++k) s.size[k] = m->geom_size[3 * g + k];
+    auto s = std::make_unique<Shape>();
+    s->geom = g;
+    s->type = m->geom_type[g];
+    for (int k = 0; k < 3; ++k) s->size[k] = m->geom_size[3 * g + k];
     // Static geoms in world coordinates; moving ones in their body frame.
-    s.T_part_geom = is_static ? pose_of(d->geom_xpos + 3 * g, d->geom_xmat + 9 * g) : geom_in_body(m, g);
-    s.T_geom_part = s.T_part_geom.inverse();
-    if (s.type == mjGEOM_BOX || s.type == mjGEOM_MESH) triangulate(m, g, s);
-    if (s.type == mjGEOM_HFIELD)
-      throw std::runtime_error("Embree scene: geom type " + std::to_string(s.type) + " is not supported");
-    parts_[static_cast<size_t>(p)]->shapes.push_back(std::move(s));
-  }
-
-  for (auto& part : parts_) {
-    part->scene = rtcNewScene(device_);
-    for (size_t i = 0; i < part->shapes.size(); ++i) {
-      Shape& s = part->shapes[i];
-      RTCGeometry geom;
-      if (!s.triangles.empty()) {
-        geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
-        auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                              3 * sizeof(float), s.vertices.size()));
-        for (size_t k = 0; k < s.vertices.size(); ++k)
-          for (int c = 0; c < 3; ++c) v[3 * k + static_cast<size_t>(c)] = static_cast<float>(s.vertices[k][c]);
-        auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                                   3 * sizeof(unsigned), s.triangles.size()));
-        for (size_t k = 0; k < s.triangles.size(); ++k)
-          for (int c = 0; c < 3; ++c) idx[3 * k + static_cast<size_t>(c)] = static_cast<unsigned>(s.triangles[k][c]);
-        triangles_ += s.triangles.size();
-      } else {
-        geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
-        rtcSetGeometryUserPrimitiveCount(geom, 1);
-        rtcSetGeometryUserData(geom, &s);
-        rtcSetGeometryBoundsFunction(geom, user_bounds, nullptr);
-        rtcSetGeometryIntersectFunction(geom, user_intersect);
-        rtcSetGeometryOccludedFunction(geom, user_occluded);
+    s->T_part_geom = is_static ? pose_of(d->geom_xpos + 3 * g, d->geom_xmat + 9 * g) : geom_in_body(m, g);
+    s->T_geom_part = s->T_part_geom.inverse();
+    if (s->type == mjGEOM_MESH || (is_static && s->type == mjGEOM_BOX)) triangulate(m, g, *s);
+    if (!is_static) {
+      int& k = moving_of_body[static_cast<size_t>(body)];
+      if (k < 0) {
+        k = static_cast<int>(moving_.size());
+        moving_.emplace_back();
+        moving_.back().body = body;
       }
-      rtcCommitGeometry(geom);
-      const unsigned id = rtcAttachGeometry(part->scene, geom);
-      rtcReleaseGeometry(geom);
-      if (id != i) throw std::logic_error("Embree geometry ids are not sequential");
+      moving_[static_cast<size_t>(k)].shapes.push_back(std::move(*s));
+      continue;
     }
-    rtcCommitScene(part->scene);
+    RTCGeometry geom;
+    if (!s->triangles.empty()) {
+      geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
+      auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                            3 * sizeof(float), s->vertices.size()));
+      for (size_t k = 0; k < s->vertices.size(); ++k)
+        for (int c = 0; c < 3; ++c) v[3 * k + static_cast<size_t>(c)] = static_cast<float>(s->vertices[k][c]);
+      auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                                 3 * sizeof(unsigned), s->triangles.size()));
+      for (size_t k = 0; k < s->triangles.size(); ++k)
+        for (int c = 0; c < 3; ++c) idx[3 * k + static_cast<size_t>(c)] = static_cast<unsigned>(s->triangles[k][c]);
+      triangles_ += s->triangles.size();
+    } else {
+      geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
+      rtcSetGeometryUserPrimitiveCount(geom, 1);
+      rtcSetGeometryUserData(geom, s.get());
+      rtcSetGeometryBoundsFunction(geom, user_bounds, nullptr);
+      rtcSetGeometryIntersectFunction(geom, user_intersect);
+      rtcSetGeometryOccludedFunction(geom, user_occluded);
+    }
+    rtcCommitGeometry(geom);
+    const unsigned id = rtcAttachGeometry(static_, geom);
+    rtcReleaseGeometry(geom);
+    if (id != static_shapes_.size()) throw std::logic_error("Embree geometry ids are not sequential");
+    static_shapes_.push_back(std::move(s));
+  }
+  rtcCommitScene(static_);
+
+  // A bounding sphere per moving body: the centroid of its shapes' centres, and the farthest shape extent.
+  for (MovingBody& b : moving_) {
+    for (Shape& s : b.shapes) s.bound_radius = bounding_radius(s) * (1.0 + 1e-9) + 1e-9;
+    b.centre = Vec3::Zero();
+    for (const Shape& s : b.shapes) b.centre += s.T_part_geom.translation();
+    b.centre /= static_cast<double>(b.shapes.size());
+    for (const Shape& s : b.shapes)
+      b.radius = std::max(b.radius, (s.T_part_geom.translation() - b.centre).norm() + bounding_radius(s));
+    b.radius = b.radius * (1.0 + 1e-9) + 1e-9;
   }
 }
 
 EmbreeScene::~EmbreeScene() {
-  for (auto& part : parts_) rtcReleaseScene(part->scene);
+  rtcReleaseScene(static_);
   rtcReleaseDevice(device_);
 }
 
-EmbreeScene::View::View(const EmbreeScene& scene) : scene_(scene) {
-  top_ = rtcNewScene(scene.device_);
-  rtcSetSceneFlags(top_, RTC_SCENE_FLAG_DYNAMIC);
-  rtcSetSceneBuildQuality(top_, RTC_BUILD_QUALITY_REFIT);
-  for (const auto& part : scene.parts_) {
-    RTCGeometry inst = rtcNewGeometry(scene.device_, RTC_GEOMETRY_TYPE_INSTANCE);
-    rtcSetGeometryInstancedScene(inst, part->scene);
-    rtcSetGeometryTimeStepCount(inst, 1);
-    rtcAttachGeometry(top_, inst);
-    instances_.push_back(inst);
-    T_world_part_.push_back(Iso3::Identity());
-    T_part_world_.push_back(Iso3::Identity());
-  }
-  for (size_t i = 0; i < instances_.size(); ++i) {
-    const float identity[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
-    rtcSetGeometryTransform(instances_[i], 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, identity);
-    rtcCommitGeometry(instances_[i]);
-  }
-  rtcCommitScene(top_);
-}
-
-EmbreeScene::View::~View() {
-  for (RTCGeometry g : instances_) rtcReleaseGeometry(g);
-  rtcReleaseScene(top_);
-}
+EmbreeScene::View::View(const EmbreeScene& scene)
+    : scene_(scene),
+      T_world_body_(scene.moving_.size(), Iso3::Identity()),
+      T_body_world_(scene.moving_.size(), Iso3::Identity()),
+      centre_world_(scene.moving_.size(), Vec3::Zero()) {}
 
 void EmbreeScene::View::update(const mjData* d) {
-  for (size_t i = 1; i < instances_.size(); ++i) {
-    const int body = scene_.parts_[i]->body;
-    const Iso3 T = pose_of(d->xpos + 3 * body, d->xmat + 9 * body);
-    T_world_part_[i] = T;
-    T_part_world_[i] = T.inverse();
-    float xfm[12];
-    for (int c = 0; c < 3; ++c)
-      for (int r = 0; r < 3; ++r) xfm[3 * c + r] = static_cast<float>(T.linear()(r, c));
-    for (int r = 0; r < 3; ++r) xfm[9 + r] = static_cast<float>(T.translation()[r]);
-    rtcSetGeometryTransform(instances_[i], 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, xfm);
-    rtcCommitGeometry(instances_[i]);
+  for (size_t i = 0; i < scene_.moving_.size(); ++i) {
+    const MovingBody& b = scene_.moving_[i];
+    T_world_body_[i] = pose_of(d->xpos + 3 * b.body, d->xmat + 9 * b.body);
+    T_body_world_[i] = T_world_body_[i].inverse();
+    centre_world_[i] = T_world_body_[i] * b.centre;
   }
-  rtcCommitScene(top_);
 }
 
 RayHit EmbreeScene::View::cast(const Vec3& origin, const Vec3& dir, double t_min, double t_max) const {
+  RayHit out;
+  // The static world through Embree.
   Context ctx;
   rtcInitIntersectContext(&ctx.embree);
-  ctx.view = this;
   ctx.origin = origin;
   ctx.dir = dir;
-  ctx.T_part_world = &T_part_world_;
-
   RTCRayHit rh;
   rh.ray.org_x = static_cast<float>(origin.x());
   rh.ray.org_y = static_cast<float>(origin.y());
@@ -304,28 +298,61 @@ RayHit EmbreeScene::View::cast(const Vec3& origin, const Vec3& dir, double t_min
   rh.ray.time = 0.0f;
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect1(top_, &ctx.embree, &rh);
-
-  RayHit out;
-  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return out;
-  const unsigned inst = rh.hit.instID[0];
-  const Part& part = *scene_.parts_[inst];
-  const Shape& shape = part.shapes[rh.hit.geomID];
-  // Refine in double on the exact geometry; the float hit decides only which primitive was hit.
-  const Iso3& T = T_world_part_[inst];
-  const Iso3& T_part_world = T_part_world_[inst];
-  Vec3 n;
-  const Vec3 o_part = T_part_world * origin, d_part = T_part_world.linear() * dir;
-  double t = intersect_shape(shape, static_cast<int>(rh.hit.primID), o_part, d_part, 0.0, &n);
-  if (t < 0.0) {
-    // A float-precision grazing hit the exact test rejects by a hair: keep Embree's distance.
-    t = rh.ray.tfar;
-    n = Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z).normalized();
+  rtcIntersect1(scene_.static_, &ctx.embree, &rh);
+  double best = t_max;
+  if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
+    const Shape& shape = *scene_.static_shapes_[rh.hit.geomID];
+    // Refine in double on the exact geometry; the float hit decides only which primitive was hit.
+    Vec3 n;
+    double t = intersect_shape(shape, static_cast<int>(rh.hit.primID), origin, dir, t_min, &n);
+    if (t < 0.0) {
+      // A float-precision grazing hit the exact test rejects by a hair: keep Embree's distance.
+      t = rh.ray.tfar;
+      n = Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z).normalized();
+    }
+    out.distance_m = best = t;
+    out.geom = shape.geom;
+    out.normal = n;
   }
-  out.distance_m = t;
-  out.geom = shape.geom;
-  out.normal = (T.linear() * n).normalized();
-  if (out.normal.dot(dir) > 0.0) out.normal = -out.normal;  // facing the sensor (two-sided triangles)
+  // The moving bodies, exactly, behind their bounding spheres.
+  for (size_t i = 0; i < scene_.moving_.size(); ++i) {
+    const MovingBody& b = scene_.moving_[i];
+    const Vec3 oc = centre_world_[i] - origin;
+    const double tca = oc.dot(dir), d2 = oc.squaredNorm() - tca * tca, r2 = b.radius * b.radius;
+    if (d2 > r2) continue;
+    const double half = std::sqrt(r2 - d2);
+    if (tca + half < t_min || tca - half > best) continue;
+    const Vec3 o = T_body_world_[i] * origin, d = T_body_world_[i].linear() * dir;
+    for (const Shape& s : b.shapes) {
+      // Each shape behind its own bounding sphere too.
+      const Vec3 sc = s.T_part_geom.translation() - o;
+      const double sca = sc.dot(d), sd2 = sc.squaredNorm() - sca * sca, sr2 = s.bound_radius * s.bound_radius;
+      if (sd2 > sr2 || sca + s.bound_radius < t_min || sca - s.bound_radius > best) continue;
+      Vec3 n;
+      double t = -1.0;
+      if (s.triangles.empty()) {
+        t = intersect_shape(s, 0, o, d, t_min, &n);
+      } else {
+        for (size_t k = 0; k < s.triangles.size(); ++k) {
+          Vec3 nk;
+          const double tk = intersect_shape(s, static_cast<int>(k), o, d, t_min, &nk);
+          if (tk >= 0.0 && (t < 0.0 || tk < t)) {
+            t = tk;
+            n = nk;
+          }
+        }
+      }
+      if (t >= 0.0 && t < best) {
+        out.distance_m = best = t;
+        out.geom = s.geom;
+        out.normal = T_world_body_[i].linear() * n;
+      }
+    }
+  }
+  if (out.hit()) {
+    out.normal.normalize();
+    if (out.normal.dot(dir) > 0.0) out.normal = -out.normal;  // facing the sensor (two-sided triangles)
+  }
   return out;
 }
 

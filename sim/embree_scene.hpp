@@ -1,8 +1,9 @@
-// The cell as an Embree scene for LiDAR ray casting. Every MuJoCo geom is in it: boxes and meshes as
-// triangles, planes, spheres, capsules, cylinders and ellipsoids as exact user geometry. Geoms fixed to the
-// world live in one static scene; each moving body has its own scene, instanced with the body's pose. A View
-// (one per thread) holds the instances; update() moves them to an mjData's body poses.
-// Every hit distance is recomputed in double precision on the exact geom, so distances match mj_ray.
+// The cell for LiDAR ray casting. Geoms fixed to the world go into one Embree scene, built once: boxes and
+// meshes as triangles, planes, spheres, capsules, cylinders and ellipsoids as exact user geometry. Geoms of
+// moving bodies (the arm) are few primitives; each View (one per thread) poses them from an mjData and tests
+// them exactly behind a bounding sphere per body, so moving the arm costs no Embree rebuild and threads never
+// wait on each other. Every hit distance is computed or refined in double precision on the exact geom, so
+// distances match mj_ray.
 #pragma once
 
 #include <memory>
@@ -18,7 +19,7 @@ namespace weldtwin {
 struct RayHit {
   double distance_m = -1.0;    ///< along the unit direction; < 0: no hit
   int geom = -1;               ///< MuJoCo geom id
-  Vec3 normal = Vec3::Zero();  ///< unit outward surface normal, world frame
+  Vec3 normal = Vec3::Zero();  ///< unit surface normal, world frame, facing the ray's origin
   bool hit() const { return distance_m >= 0.0; }
 };
 
@@ -30,27 +31,21 @@ class EmbreeScene {
   EmbreeScene(const EmbreeScene&) = delete;
   EmbreeScene& operator=(const EmbreeScene&) = delete;
 
-  struct Shape;  // one geom's exact geometry (internal)
-  struct Part;   // one Embree child scene: a body or the static world (internal)
+  struct Shape;  ///< one geom's exact geometry (internal)
+  struct MovingBody;
 
   class View {
    public:
     explicit View(const EmbreeScene& scene);
-    ~View();
-    View(const View&) = delete;
-    View& operator=(const View&) = delete;
-    /// Moves the bodies to the poses in `d` (after mj_kinematics) and commits.
+    /// Poses the moving bodies as in `d` (after mj_kinematics).
     void update(const mjData* d);
     /// The first hit along origin + t * dir, t in [t_min, t_max]; dir must be unit length.
     RayHit cast(const Vec3& origin, const Vec3& dir, double t_min, double t_max) const;
 
    private:
-    friend class EmbreeScene;
     const EmbreeScene& scene_;
-    RTCScene top_ = nullptr;
-    std::vector<RTCGeometry> instances_;
-    std::vector<Iso3> T_world_part_;  ///< pose of each part's frame
-    std::vector<Iso3> T_part_world_;  ///< and its inverse
+    std::vector<Iso3> T_world_body_, T_body_world_;
+    std::vector<Vec3> centre_world_;
   };
 
   View make_view() const { return View(*this); }
@@ -58,7 +53,9 @@ class EmbreeScene {
 
  private:
   RTCDevice device_ = nullptr;
-  std::vector<std::unique_ptr<Part>> parts_;
+  RTCScene static_ = nullptr;
+  std::vector<std::unique_ptr<Shape>> static_shapes_;  ///< by Embree geometry id
+  std::vector<MovingBody> moving_;
   size_t triangles_ = 0;
 };
 

@@ -1,5 +1,6 @@
 #include "sim/lidar_model.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 
@@ -53,17 +54,19 @@ void LidarSetting::apply(const std::map<std::string, double>& overrides, const s
 }
 
 LidarErrorModel::LidarErrorModel(const LidarSetting& setting, uint64_t stream)
-    : s_(setting), rng_(setting.seed * 0x9E3779B97F4A7C15ULL ^ (stream + 0x632BE59BD9B4E019ULL)) {}
+    : s_(setting),
+      rng_(setting.seed * 0x9E3779B97F4A7C15ULL ^ (stream + 0x632BE59BD9B4E019ULL)),
+      cos_start_(std::cos(deg2rad(setting.dropout_start_deg))),
+      cos_full_(std::cos(deg2rad(setting.dropout_full_deg))) {}
 
-double LidarErrorModel::measure(double range_m, double incidence_rad) {
+double LidarErrorModel::measure(double range_m, double cos_incidence) {
   if (range_m > s_.max_range_m) return 0.0;
   if (s_.random_dropouts && uniform_(rng_) < s_.random_dropout_probability) return 0.0;
-  if (s_.grazing_dropouts) {
-    const double deg = rad2deg(incidence_rad);
-    if (deg >= s_.dropout_full_deg) return 0.0;
-    if (deg > s_.dropout_start_deg &&
-        uniform_(rng_) < (deg - s_.dropout_start_deg) / (s_.dropout_full_deg - s_.dropout_start_deg))
-      return 0.0;
+  if (s_.grazing_dropouts && cos_incidence < cos_start_) {
+    // The chance of losing the echo grows linearly with the angle from dropout_start_deg to dropout_full_deg.
+    if (cos_incidence <= cos_full_) return 0.0;
+    const double deg = rad2deg(std::acos(cos_incidence));
+    if (uniform_(rng_) < (deg - s_.dropout_start_deg) / (s_.dropout_full_deg - s_.dropout_start_deg)) return 0.0;
   }
   double r = range_m;
   if (s_.noise) r += (s_.noise_sigma_m + s_.noise_sigma_rel * range_m) * normal_(rng_);
@@ -72,9 +75,9 @@ double LidarErrorModel::measure(double range_m, double incidence_rad) {
   return r;
 }
 
-uint8_t LidarErrorModel::quality(double range_m, double incidence_rad) {
+uint8_t LidarErrorModel::quality(double range_m, double cos_incidence) {
   // Stronger echoes from near, head-on surfaces; the A2 reports a 6-bit quality shifted left by 2.
-  const double strength = std::cos(incidence_rad) / (1.0 + 0.15 * range_m);
+  const double strength = cos_incidence / (1.0 + 0.15 * range_m);
   const int q6 = std::clamp(static_cast<int>(std::lround(63.0 * strength)), 1, 63);
   return static_cast<uint8_t>(q6 << 2);
 }

@@ -46,10 +46,11 @@ struct LidarSetting {
 class LidarErrorModel {
  public:
   LidarErrorModel(const LidarSetting& setting, uint64_t stream);
-  /// The reported range for an exact hit at `range_m` with incidence angle `incidence_rad` (0 = head-on).
-  double measure(double range_m, double incidence_rad);
+  /// The reported range for an exact hit at `range_m`, the beam meeting the surface at an incidence angle
+  /// whose cosine is `cos_incidence` (1 = head-on).
+  double measure(double range_m, double cos_incidence);
   /// Quality byte for a return (0..255), decreasing with range and incidence.
-  static uint8_t quality(double range_m, double incidence_rad);
+  static uint8_t quality(double range_m, double cos_incidence);
   double uniform() { return uniform_(rng_); }
 
  private:
@@ -57,6 +58,7 @@ class LidarErrorModel {
   std::mt19937_64 rng_;
   std::normal_distribution<double> normal_{0.0, 1.0};
   std::uniform_real_distribution<double> uniform_{0.0, 1.0};
+  double cos_start_, cos_full_;  ///< cosines of the dropout angles
 };
 
 }  // namespace weldtwin

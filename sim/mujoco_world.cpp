@@ -142,7 +142,7 @@ void clamp_xml(std::ostringstream& os, int index, const ClampPlacement& c) {
   os << "<body name=\"" << n << "\"";
   num.pose(c.T_base_clamp);
   os << ">\n";
-  cylinder_geom(os, n + "_pad", Vec3(0, 0, 0.004), 0.011, 0.004, "0.1 0.1 0.1 1");
+  cylinder_geom(os, n + "_pad", Vec3(0, 0, 0.004), ClampDims::kPadRadius, 0.004, "0.1 0.1 0.1 1");
   cylinder_geom(os, n + "_spindle", Vec3(0, 0, 0.028), 0.005, 0.020, "0.75 0.75 0.72 1");
   box_geom(os, n + "_arm", Vec3(0.045, 0, 0.052), Vec3(0.055, 0.012, 0.006));
   box_geom(os, n + "_post", Vec3(0.09, 0, 0.5 * (0.058 - h)), Vec3(0.012, 0.015, 0.5 * (h + 0.058)));

@@ -39,6 +39,7 @@ std::vector<SeamCoverage> seam_coverage(const PartSpec& part, const Iso3& T_base
       }
       ++c.stations;
       c.seen += on_reference && on_wall;
+      c.seen_one += on_reference || on_wall;
     }
     c.points_near = static_cast<int>(std::count(near_seam.begin(), near_seam.end(), 1));
     out.push_back(c);

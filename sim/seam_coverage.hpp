@@ -13,8 +13,10 @@ struct SeamCoverage {
   std::string seam;
   int stations = 0;     ///< stations along the seam
   int seen = 0;         ///< stations with points on both members within `radius_m`
+  int seen_one = 0;     ///< stations with points on at least one member
   int points_near = 0;  ///< part points within `radius_m` of the seam
   double fraction() const { return stations ? static_cast<double>(seen) / stations : 0.0; }
+  double fraction_one() const { return stations ? static_cast<double>(seen_one) / stations : 0.0; }
 };
 
 struct CoverageSetting {

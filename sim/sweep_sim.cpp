@@ -26,6 +26,7 @@ struct TurnWork {
 // Casts turns taken from `next` until none is left, with this thread's own mjData and Embree view.
 void run_turns(const TurnWork& w, std::atomic<size_t>& next, std::atomic<size_t>& done) {
   DataPtr data = w.world.make_data();
+  BodyChain::Cache chain_cache;
   EmbreeScene::View view = w.scene.make_view();
   long current_slice = -1;
   const double dt = 1.0 / w.lidar.sample_rate_hz;
@@ -54,20 +55,20 @@ void run_turns(const TurnWork& w, std::atomic<size_t>& next, std::atomic<size_t>
         view.update(data.get());
         current_slice = slice;
       }
-      const Iso3 T = w.chain.pose(w.program.q(s.t_s));
+      const Iso3 T = w.chain.pose(w.program.q(s.t_s), chain_cache);
       if (w.options.record_sensor_poses) w.out.T_base_lidar[i] = T;
       // The ray leaves the scan centre in the scan plane, counter-clockwise about +z from +x.
       const Vec3 dir = T.linear() * beam[k];
       const RayHit hit = view.cast(T.translation(), dir, 1e-6, w.lidar.max_range_m * 1.05);
       exact[k] = hit.hit() ? hit.distance_m : 0.0;
       double r = 0.0;
-      double incidence = 0.0;
+      double cos_incidence = 1.0;
       if (hit.hit()) {
-        incidence = std::acos(std::clamp(-hit.normal.dot(dir), -1.0, 1.0));
-        r = errors.measure(hit.distance_m, incidence);
+        cos_incidence = std::clamp(-hit.normal.dot(dir), 0.0, 1.0);
+        r = errors.measure(hit.distance_m, cos_incidence);
       }
       s.range_m = static_cast<float>(r);
-      s.quality = r > 0.0 ? LidarErrorModel::quality(r, incidence) : 0;
+      s.quality = r > 0.0 ? LidarErrorModel::quality(r, cos_incidence) : 0;
       w.out.geoms[i] = r > 0.0 ? hit.geom : -1;
       w.out.labels[i] = r > 0.0 ? w.world.geom_label(hit.geom) : Label::kNone;
     }

@@ -144,8 +144,9 @@ TEST(SweepSim, EveryPartGetsEnoughPointsAndItsSeamsAreSeen) {
     std::printf("%s: %zu part points;", cell.part.name.c_str(), part_points.size());
     EXPECT_GT(part_points.size(), 2000u) << file;
     for (const SeamCoverage& c : seam_coverage(cell.part, cell.layout.T_base_part, part_points)) {
-      std::printf(" %s %.0f %%", c.seam.c_str(), 100 * c.fraction());
-      EXPECT_GT(c.fraction(), 0.5) << file << " seam " << c.seam;
+      // Seen from the open side: points on the joint's members within 8 mm of nearly every seam station.
+      std::printf(" %s %.0f %% (both members %.0f %%)", c.seam.c_str(), 100 * c.fraction_one(), 100 * c.fraction());
+      EXPECT_GE(c.fraction_one(), 0.7) << file << " seam " << c.seam;
     }
     std::printf("\n");
   }

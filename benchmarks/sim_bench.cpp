@@ -1,0 +1,95 @@
+// Speed of the twin's LiDAR: Embree rays per second on the default cell (against MuJoCo's own mj_ray in the
+// same run), and a whole default sweep against its real duration.
+#include <benchmark/benchmark.h>
+
+#include <random>
+
+#include "core/cell_spec.hpp"
+#include "core/part_spec.hpp"
+#include "sim/embree_scene.hpp"
+#include "sim/sweep_sim.hpp"
+
+namespace weldtwin {
+namespace {
+
+struct DefaultCell {
+  CellSpec spec = CellSpec::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml");
+  PartSpec part = PartSpec::load(spec.part_spec);
+  RobotModel robot = RobotModel::load(spec.robot_urdf);
+  CellLayout layout = make_layout(spec, part, std::nullopt);
+  MujocoWorld world{spec, part, robot, layout};
+  SweepProgram program = SweepProgram::load(spec.sweep_program, robot);
+};
+
+DefaultCell& cell() {
+  static DefaultCell c;
+  return c;
+}
+
+// Rays as the sweep casts them: from the LiDAR at a mid-sweep pose, all round its scan plane.
+std::vector<std::pair<Vec3, Vec3>> lidar_rays(size_t n) {
+  DefaultCell& c = cell();
+  std::vector<std::pair<Vec3, Vec3>> rays;
+  std::mt19937_64 rng(1);
+  for (size_t i = 0; i < n; ++i) {
+    const JointVector q = c.program.q(std::uniform_real_distribution<double>(0, c.program.duration_s())(rng));
+    const Iso3 T = c.robot.forward_kinematics(q, c.robot.require_link("lidar"));
+    const double a = std::uniform_real_distribution<double>(0, 2 * kPi)(rng);
+    rays.emplace_back(T.translation(), T.linear() * Vec3(std::cos(a), std::sin(a), 0));
+  }
+  return rays;
+}
+
+void BM_EmbreeRays(benchmark::State& state) {
+  DefaultCell& c = cell();
+  c.world.set_joints(c.world.data(), c.program.q(30.0));
+  EmbreeScene scene(c.world.model(), c.world.data());
+  EmbreeScene::View view = scene.make_view();
+  view.update(c.world.data());
+  const auto rays = lidar_rays(4096);
+  size_t i = 0, hits = 0;
+  for (auto _ : state) {
+    const auto& r = rays[i++ & 4095];
+    hits += view.cast(r.first, r.second, 1e-6, 12.0).hit();
+  }
+  benchmark::DoNotOptimize(hits);
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
+}
+BENCHMARK(BM_EmbreeRays);
+
+void BM_MjRay(benchmark::State& state) {
+  DefaultCell& c = cell();
+  c.world.set_joints(c.world.data(), c.program.q(30.0));
+  const auto rays = lidar_rays(4096);
+  size_t i = 0;
+  double sum = 0;
+  for (auto _ : state) {
+    const auto& r = rays[i++ & 4095];
+    int geom = -1;
+    sum += mj_ray(c.world.model(), c.world.data(), r.first.data(), r.second.data(), nullptr, 1, -1, &geom);
+  }
+  benchmark::DoNotOptimize(sum);
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
+}
+BENCHMARK(BM_MjRay);
+
+// The whole default sweep (noise on); the counter is simulated seconds per wall second.
+void BM_DefaultSweep(benchmark::State& state) {
+  DefaultCell& c = cell();
+  SweepOptions options;
+  options.threads = static_cast<int>(state.range(0));
+  double simulated = 0;
+  for (auto _ : state) {
+    const SweepResult r = simulate_sweep(c.world, c.robot, c.program, LidarSetting(), options);
+    benchmark::DoNotOptimize(r.log.samples.data());
+    simulated += c.program.duration_s();
+  }
+  state.counters["x_real_time"] = benchmark::Counter(simulated, benchmark::Counter::kIsRate);
+  state.counters["samples"] = static_cast<double>(c.program.duration_s() * LidarSetting().sample_rate_hz);
+}
+BENCHMARK(BM_DefaultSweep)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
+}  // namespace weldtwin
+
+BENCHMARK_MAIN();
