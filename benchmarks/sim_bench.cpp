@@ -6,6 +6,7 @@
 
 #include "core/cell_spec.hpp"
 #include "core/part_spec.hpp"
+#include "sim/body_chain.hpp"
 #include "sim/embree_scene.hpp"
 #include "sim/sweep_sim.hpp"
 
@@ -88,6 +89,31 @@ void BM_DefaultSweep(benchmark::State& state) {
   state.counters["samples"] = static_cast<double>(c.program.duration_s() * LidarSetting().sample_rate_hz);
 }
 BENCHMARK(BM_DefaultSweep)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
+}  // namespace weldtwin
+
+
+namespace weldtwin {
+namespace {
+
+// The LiDAR's pose per sample: the plain chain product against the cached one, in a base-joint pass.
+void BM_LidarPose(benchmark::State& state) {
+  DefaultCell& c = cell();
+  const BodyChain chain(c.world.model(), c.world.body("lidar"), c.world.qpos_adr());
+  BodyChain::Cache cache;
+  const bool cached = state.range(0) != 0;
+  double t = 0.0, sum = 0.0;
+  for (auto _ : state) {
+    const JointVector q = c.program.q(2.0 + t);  // inside the first pass: only J1 moves
+    t += 1.25e-4;
+    if (t > 10.0) t = 0.0;
+    sum += (cached ? chain.pose(q, cache) : chain.pose(q)).translation().x();
+  }
+  benchmark::DoNotOptimize(sum);
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
+}
+BENCHMARK(BM_LidarPose)->Arg(0)->Arg(1);
 
 }  // namespace
 }  // namespace weldtwin

@@ -266,14 +266,57 @@ EmbreeScene::View::View(const EmbreeScene& scene)
     : scene_(scene),
       T_world_body_(scene.moving_.size(), Iso3::Identity()),
       T_body_world_(scene.moving_.size(), Iso3::Identity()),
-      centre_world_(scene.moving_.size(), Vec3::Zero()) {}
+      centre_world_(scene.moving_.size(), Vec3::Zero()),
+      active_(scene.moving_.size()) {
+  for (size_t i = 0; i < scene.moving_.size(); ++i) active_[i].assign(scene.moving_[i].shapes.size(), 1);
+}
+
+std::vector<int> EmbreeScene::moving_bodies() const {
+  std::vector<int> out;
+  for (const MovingBody& b : moving_) out.push_back(b.body);
+  return out;
+}
 
 void EmbreeScene::View::update(const mjData* d) {
+  std::vector<Iso3> poses;
+  for (const MovingBody& b : scene_.moving_) poses.push_back(pose_of(d->xpos + 3 * b.body, d->xmat + 9 * b.body));
+  update(poses);
+}
+
+void EmbreeScene::View::update(const std::vector<Iso3>& T_world_body) {
+  for (size_t i = 0; i < scene_.moving_.size(); ++i) {
+    T_world_body_[i] = T_world_body[i];
+    T_body_world_[i] = T_world_body[i].inverse();
+    centre_world_[i] = T_world_body[i] * scene_.moving_[i].centre;
+    active_[i].assign(scene_.moving_[i].shapes.size(), 1);
+  }
+}
+
+void EmbreeScene::View::restrict_to_plane(const Vec3& origin, const Vec3& normal, double slack_m, double slack_rad) {
   for (size_t i = 0; i < scene_.moving_.size(); ++i) {
     const MovingBody& b = scene_.moving_[i];
-    T_world_body_[i] = pose_of(d->xpos + 3 * b.body, d->xmat + 9 * b.body);
-    T_body_world_[i] = T_world_body_[i].inverse();
-    centre_world_[i] = T_world_body_[i] * b.centre;
+    const Vec3 n = T_body_world_[i].linear() * normal;  // the plane normal in the body frame
+    const Vec3 o = T_body_world_[i] * origin;
+    for (size_t k = 0; k < b.shapes.size(); ++k) {
+      const Shape& s = b.shapes[k];
+      // Half-extent of the posed primitive along the normal (the support function), exact for each type.
+      const Vec3 ng = s.T_geom_part.linear() * n;
+      double extent = s.bound_radius;
+      switch (s.type) {
+        case mjGEOM_BOX:
+          extent = std::abs(ng.x()) * s.size[0] + std::abs(ng.y()) * s.size[1] + std::abs(ng.z()) * s.size[2];
+          break;
+        case mjGEOM_CYLINDER:
+          extent = std::abs(ng.z()) * s.size[1] + std::sqrt(std::max(0.0, 1.0 - ng.z() * ng.z())) * s.size[0];
+          break;
+        case mjGEOM_CAPSULE: extent = std::abs(ng.z()) * s.size[1] + s.size[0]; break;
+        case mjGEOM_SPHERE: extent = s.size[0]; break;
+        default: break;
+      }
+      const Vec3 c = s.T_part_geom.translation() - o;
+      const double reach = c.norm() + s.bound_radius;
+      active_[i][k] = std::abs(c.dot(n)) <= extent + slack_m + slack_rad * reach + 1e-9;
+    }
   }
 }
 
@@ -323,7 +366,9 @@ RayHit EmbreeScene::View::cast(const Vec3& origin, const Vec3& dir, double t_min
     const double half = std::sqrt(r2 - d2);
     if (tca + half < t_min || tca - half > best) continue;
     const Vec3 o = T_body_world_[i] * origin, d = T_body_world_[i].linear() * dir;
-    for (const Shape& s : b.shapes) {
+    for (size_t k = 0; k < b.shapes.size(); ++k) {
+      if (!active_[i][k]) continue;
+      const Shape& s = b.shapes[k];
       // Each shape behind its own bounding sphere too.
       const Vec3 sc = s.T_part_geom.translation() - o;
       const double sca = sc.dot(d), sd2 = sc.squaredNorm() - sca * sca, sr2 = s.bound_radius * s.bound_radius;
@@ -333,9 +378,9 @@ RayHit EmbreeScene::View::cast(const Vec3& origin, const Vec3& dir, double t_min
       if (s.triangles.empty()) {
         t = intersect_shape(s, 0, o, d, t_min, &n);
       } else {
-        for (size_t k = 0; k < s.triangles.size(); ++k) {
+        for (size_t f = 0; f < s.triangles.size(); ++f) {
           Vec3 nk;
-          const double tk = intersect_shape(s, static_cast<int>(k), o, d, t_min, &nk);
+          const double tk = intersect_shape(s, static_cast<int>(f), o, d, t_min, &nk);
           if (tk >= 0.0 && (t < 0.0 || tk < t)) {
             t = tk;
             n = nk;

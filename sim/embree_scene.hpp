@@ -39,6 +39,12 @@ class EmbreeScene {
     explicit View(const EmbreeScene& scene);
     /// Poses the moving bodies as in `d` (after mj_kinematics).
     void update(const mjData* d);
+    /// Poses the moving bodies: T_world_body[i] for moving_bodies()[i].
+    void update(const std::vector<Iso3>& T_world_body);
+    /// Promises that the next rays lie in the plane through `origin` with unit normal `normal`, give or take
+    /// `slack_m` plus `slack_rad` times the distance from the origin; moving shapes that cannot meet such a ray
+    /// are skipped until the next update(). A LiDAR's rays all lie in its scan plane.
+    void restrict_to_plane(const Vec3& origin, const Vec3& normal, double slack_m, double slack_rad);
     /// The first hit along origin + t * dir, t in [t_min, t_max]; dir must be unit length.
     RayHit cast(const Vec3& origin, const Vec3& dir, double t_min, double t_max) const;
 
@@ -46,9 +52,12 @@ class EmbreeScene {
     const EmbreeScene& scene_;
     std::vector<Iso3> T_world_body_, T_body_world_;
     std::vector<Vec3> centre_world_;
+    std::vector<std::vector<char>> active_;  ///< per moving body and shape: may a ray meet it
   };
 
   View make_view() const { return View(*this); }
+  /// MuJoCo ids of the bodies that move (not welded to the world) and carry geoms.
+  std::vector<int> moving_bodies() const;
   size_t triangle_count() const { return triangles_; }
 
  private:

@@ -18,6 +18,7 @@ struct TurnWork {
   const LidarSetting& lidar;
   const SweepOptions& options;
   const BodyChain& chain;
+  const std::vector<BodyChain>& body_chains;  ///< one per moving body of the scene
   const EmbreeScene& scene;
   SweepResult& out;
   int samples_per_turn;
@@ -25,8 +26,9 @@ struct TurnWork {
 
 // Casts turns taken from `next` until none is left, with this thread's own mjData and Embree view.
 void run_turns(const TurnWork& w, std::atomic<size_t>& next, std::atomic<size_t>& done) {
-  DataPtr data = w.world.make_data();
   BodyChain::Cache chain_cache;
+  std::vector<BodyChain::Cache> body_caches(w.body_chains.size());
+  std::vector<Iso3> body_poses(w.body_chains.size());
   EmbreeScene::View view = w.scene.make_view();
   long current_slice = -1;
   const double dt = 1.0 / w.lidar.sample_rate_hz;
@@ -51,8 +53,18 @@ void run_turns(const TurnWork& w, std::atomic<size_t>& next, std::atomic<size_t>
       s.angle_rad = static_cast<float>(k * step);
       const long slice = static_cast<long>(std::floor(s.t_s / w.options.slice_s));
       if (slice != current_slice) {
-        w.world.set_joints(data.get(), w.program.q(static_cast<double>(slice) * w.options.slice_s));
-        view.update(data.get());
+        // The arm's geometry, posed at the start of the slice.
+        const JointVector q_slice = w.program.q(static_cast<double>(slice) * w.options.slice_s);
+        for (size_t b = 0; b < body_poses.size(); ++b) body_poses[b] = w.body_chains[b].pose(q_slice, body_caches[b]);
+        view.update(body_poses);
+        // All of the slice's rays lie in scan planes between those at its start and end.
+        if (w.options.cull_by_scan_plane) {
+          const double t0 = static_cast<double>(slice) * w.options.slice_s;
+          const Iso3 A = w.chain.pose(w.program.q(t0)), B = w.chain.pose(w.program.q(t0 + w.options.slice_s));
+          const double tilt = Eigen::AngleAxisd(A.linear().transpose() * B.linear()).angle();
+          view.restrict_to_plane(A.translation(), A.linear().col(2), (B.translation() - A.translation()).norm(),
+                                 1.5 * tilt);
+        }
         current_slice = slice;
       }
       const Iso3 T = w.chain.pose(w.program.q(s.t_s), chain_cache);
@@ -131,9 +143,11 @@ SweepResult simulate_sweep(const MujocoWorld& world, const RobotModel& robot, co
 
   const BodyChain chain(world.model(), world.body(options.lidar_link), world.qpos_adr());
   const EmbreeScene scene(world.model(), world.data());
+  std::vector<BodyChain> body_chains;
+  for (int b : scene.moving_bodies()) body_chains.emplace_back(world.model(), b, world.qpos_adr());
   const int threads = std::max(1, options.threads > 0 ? options.threads
                                                       : static_cast<int>(std::thread::hardware_concurrency()));
-  const TurnWork work{world, program, lidar, options, chain, scene, out, per_turn};
+  const TurnWork work{world, program, lidar, options, chain, body_chains, scene, out, per_turn};
   std::atomic<size_t> next{0}, done{0};
   std::vector<std::thread> pool;
   for (int k = 0; k < threads; ++k) pool.emplace_back(run_turns, std::cref(work), std::ref(next), std::ref(done));

@@ -20,6 +20,7 @@ struct SweepOptions {
   double max_duration_s = 0.0;  ///< stop early (tests); 0: the whole program
   int threads = 0;              ///< 0: all cores
   bool record_sensor_poses = false;  ///< keep T_base_lidar of every sample (memory: 56 bytes a sample)
+  bool cull_by_scan_plane = true;    ///< skip arm shapes the slice's scan planes cannot meet (same result)
   std::string lidar_link = "lidar";
   std::function<void(double done_fraction)> progress;  ///< called now and then from the calling thread
 };

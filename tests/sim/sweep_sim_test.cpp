@@ -152,6 +152,23 @@ TEST(SweepSim, EveryPartGetsEnoughPointsAndItsSeamsAreSeen) {
   }
 }
 
+TEST(SweepSim, CullingArmShapesByScanPlaneChangesNothing) {
+  test::Cell cell;
+  const SweepProgram program = SweepProgram::load(cell.spec.sweep_program, cell.robot);
+  SweepOptions options;
+  options.max_duration_s = 40.0;  // passes and transitions
+  const SweepResult a = simulate_sweep(*cell.world, cell.robot, program, LidarSetting(), options);
+  options.cull_by_scan_plane = false;
+  const SweepResult b = simulate_sweep(*cell.world, cell.robot, program, LidarSetting(), options);
+  size_t robot = 0;
+  for (size_t i = 0; i < a.log.samples.size(); ++i) {
+    ASSERT_EQ(a.log.samples[i].range_m, b.log.samples[i].range_m) << i;
+    ASSERT_EQ(a.geoms[i], b.geoms[i]) << i;
+    robot += a.labels[i] == Label::kRobot;
+  }
+  EXPECT_GT(robot, 1000u);  // the arm is in view, so the culling had something to get wrong
+}
+
 TEST(SweepSim, RangeNoiseHasTheStatedSigmaAndSeedsReproduce) {
   test::Cell cell;
   const SweepProgram program = SweepProgram::load(cell.spec.sweep_program, cell.robot);
