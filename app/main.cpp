@@ -9,22 +9,26 @@
 
 int main(int argc, char** argv) {
   CLI::App app{
-      "weldtwin: find a clamped part with a wrist-mounted 2D LiDAR, plan its welds and check them in a MuJoCo "
+      "weldtwin: find a clamped part with a wrist-mounted 2D LiDAR, plan its welds and check them in a "
+      "MuJoCo "
       "digital twin of the cell."};
   app.require_subcommand(1);
 
   weldtwin::ScanCommand scan;
   uint64_t seed = 0;
-  CLI::App* sc = app.add_subcommand(
-      "scan", "Simulate the cell's LiDAR sweep: write the ScanLog, and optionally the base-frame cloud and the truth");
+  CLI::App* sc = app.add_subcommand("scan",
+                                    "Simulate the cell's LiDAR sweep: write the ScanLog, and optionally the "
+                                    "base-frame cloud and the truth");
   sc->add_option("cell", scan.cell, "cell file (scenes/cells/*.yaml)")->required()->check(CLI::ExistingFile);
-  CLI::Option* seed_opt =
-      sc->add_option("--seed", seed, "draw the part pose (any yaw, anywhere within reach), 2-4 clamps and clutter");
+  CLI::Option* seed_opt = sc->add_option(
+      "--seed", seed, "draw the part pose (any yaw, anywhere within reach), 2-4 clamps and clutter");
   sc->add_option("--out", scan.out_log, "ScanLog to write (format: docs/scanlog.md)")->required();
   sc->add_option("--cloud", scan.cloud, "base-frame point cloud to write (.pcd, binary)");
-  sc->add_option("--truth", scan.truth, "ground truth to write (.json): T_base_part, clamps, per-point labels");
+  sc->add_option("--truth", scan.truth,
+                 "ground truth to write (.json): T_base_part, clamps, per-point labels");
   sc->add_option("--mjcf", scan.mjcf, "save the composed MuJoCo model of the cell (.xml)");
-  sc->add_flag("--noise-free", scan.noise_free, "exact ranges: no noise, quantisation, dropouts or mixed pixels");
+  sc->add_flag("--noise-free", scan.noise_free,
+               "exact ranges: no noise, quantisation, dropouts or mixed pixels");
   sc->add_option("--threads", scan.threads, "ray-casting threads (default: all cores)");
   sc->add_flag("-q,--quiet", scan.quiet, "no progress lines");
 

@@ -48,7 +48,8 @@ int run_scan(const ScanCommand& cmd) {
   }
 
   char line[256];
-  std::snprintf(line, sizeof line, "cell '%s', part '%s' at (%.3f, %.3f) m, %zu clamps, %zu clutter; sweep %.1f s",
+  std::snprintf(line, sizeof line,
+                "cell '%s', part '%s' at (%.3f, %.3f) m, %zu clamps, %zu clutter; sweep %.1f s",
                 cell.name.c_str(), part.name.c_str(), layout.T_base_part.translation().x(),
                 layout.T_base_part.translation().y(), layout.clamps.size(), layout.clutter.size(),
                 program.duration_s());
@@ -63,7 +64,8 @@ int run_scan(const ScanCommand& cmd) {
   };
   const SweepResult sweep = simulate_sweep(world, robot, program, lidar, options);
   std::snprintf(line, sizeof line, "%zu samples, %zu returns, simulated in %.2f s (%.0fx real time)",
-                sweep.log.samples.size(), sweep.log.valid_samples(), sweep.wall_s, program.duration_s() / sweep.wall_s);
+                sweep.log.samples.size(), sweep.log.valid_samples(), sweep.wall_s,
+                program.duration_s() / sweep.wall_s);
   say(line);
 
   sweep.log.write(cmd.out_log);
@@ -113,12 +115,11 @@ int run_scan(const ScanCommand& cmd) {
   truth["point_labels_rle"] = rle;
   truth["label_counts"] = counts;
   for (const SeamCoverage& c : seam_coverage(part, layout.T_base_part, part_points))
-    truth["seam_coverage"].push_back(
-        {{"seam", c.seam},
-         {"seen_fraction", c.fraction()},
-         {"seen_one_member_fraction", c.fraction_one()},
-         {"stations", c.stations},
-         {"points_near", c.points_near}});
+    truth["seam_coverage"].push_back({{"seam", c.seam},
+                                      {"seen_fraction", c.fraction()},
+                                      {"seen_one_member_fraction", c.fraction_one()},
+                                      {"stations", c.stations},
+                                      {"points_near", c.points_near}});
   truth["sweep"] = {{"duration_s", program.duration_s()},
                     {"samples", sweep.log.samples.size()},
                     {"returns", sweep.log.valid_samples()},

@@ -12,9 +12,9 @@ struct ScanCommand {
   std::string cell;
   std::optional<uint64_t> seed;
   std::string out_log;
-  std::string cloud;    ///< "" = none
-  std::string truth;    ///< "" = none
-  std::string mjcf;     ///< "" = none: where to save the composed MJCF
+  std::string cloud;  ///< "" = none
+  std::string truth;  ///< "" = none
+  std::string mjcf;   ///< "" = none: where to save the composed MJCF
   bool noise_free = false;
   int threads = 0;
   bool quiet = false;

@@ -93,7 +93,6 @@ BENCHMARK(BM_DefaultSweep)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRe
 }  // namespace
 }  // namespace weldtwin
 
-
 namespace weldtwin {
 namespace {
 

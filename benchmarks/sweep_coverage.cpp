@@ -72,11 +72,12 @@ int main(int argc, char** argv) {
       std::printf("%s (%d layouts): part points median %.0f, min %.0f\n", part.name.c_str(), layouts,
                   percentile(part_points, 0.5), percentile(part_points, 0.0));
       for (size_t s = 0; s < part.seams.size(); ++s)
-        std::printf("  seam %-6s both members: median %.2f, p10 %.2f, min %.2f; >= 90 %% in %d, < 25 %% in %d | "
-                    "one member at least: median %.2f, min %.2f\n",
-                    part.seams[s].name.c_str(), percentile(seen[s], 0.5), percentile(seen[s], 0.1),
-                    percentile(seen[s], 0.0), fully[s], blind[s], percentile(seen_one[s], 0.5),
-                    percentile(seen_one[s], 0.0));
+        std::printf(
+            "  seam %-6s both members: median %.2f, p10 %.2f, min %.2f; >= 90 %% in %d, < 25 %% in %d | "
+            "one member at least: median %.2f, min %.2f\n",
+            part.seams[s].name.c_str(), percentile(seen[s], 0.5), percentile(seen[s], 0.1),
+            percentile(seen[s], 0.0), fully[s], blind[s], percentile(seen_one[s], 0.5),
+            percentile(seen_one[s], 0.0));
     }
   } catch (const InputError& e) {
     std::fprintf(stderr, "sweep_coverage: %s\n", e.what());

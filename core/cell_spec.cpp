@@ -39,7 +39,8 @@ CellSpec parse(const std::string& file) {
     pl.max_radius_m = yaml::maybe_length(p, "max_radius", file).value_or(pl.max_radius_m);
     pl.max_bearing_rad = yaml::maybe_angle(p, "max_bearing", file).value_or(pl.max_bearing_rad);
     pl.base_keepout_m = yaml::maybe_length(p, "base_keepout", file).value_or(pl.base_keepout_m);
-    if (pl.min_radius_m >= pl.max_radius_m) throw input_error(file, "placement: min_radius must be below max_radius");
+    if (pl.min_radius_m >= pl.max_radius_m)
+      throw input_error(file, "placement: min_radius must be below max_radius");
   }
 
   const YAML::Node part = root["part"];
@@ -47,7 +48,8 @@ CellSpec parse(const std::string& file) {
   cell.part_spec = existing(file, part, "spec");
   const bool has_x = static_cast<bool>(yaml::maybe_length(part, "x", file));
   const bool has_y = static_cast<bool>(yaml::maybe_length(part, "y", file));
-  if (has_x != has_y) throw input_error(file, "part: give both x and y, or neither (then --seed draws the pose)");
+  if (has_x != has_y)
+    throw input_error(file, "part: give both x and y, or neither (then --seed draws the pose)");
   if (has_x) {
     PartPose pose;
     pose.x_m = yaml::length(part, "x", file);

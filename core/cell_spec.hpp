@@ -1,5 +1,5 @@
-// A welding cell (scenes/cells/*.yaml): the environment MJCF, the robot, the sweep program, the table, where a
-// part may be placed, the part with its pose, its clamps, clutter and LiDAR setting overrides.
+// A welding cell (scenes/cells/*.yaml): the environment MJCF, the robot, the sweep program, the table, where
+// a part may be placed, the part with its pose, its clamps, clutter and LiDAR setting overrides.
 #pragma once
 
 #include <map>
@@ -20,10 +20,10 @@ struct TableSpec {
 
 /// Where parts may go: their seams within a ring around the robot base, in front of it.
 struct PlacementSpec {
-  double min_radius_m = 0.28;    ///< closest seam point to the base axis
-  double max_radius_m = 0.62;    ///< farthest seam point from the base axis
+  double min_radius_m = 0.28;              ///< closest seam point to the base axis
+  double max_radius_m = 0.62;              ///< farthest seam point from the base axis
   double max_bearing_rad = deg2rad(75.0);  ///< |atan2(y, x)| of the part origin
-  double base_keepout_m = 0.16;  ///< no part or clamp within this radius of the base axis
+  double base_keepout_m = 0.16;            ///< no part or clamp within this radius of the base axis
 };
 
 struct PartPose {
@@ -38,7 +38,7 @@ struct ClutterItem {
 };
 
 struct CellSpec {
-  std::string source;           ///< the YAML file
+  std::string source;  ///< the YAML file
   std::string name;
   std::string environment_mjcf;  ///< resolved path: table, floor, lights, cameras
   std::string robot_urdf;        ///< resolved path

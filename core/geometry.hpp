@@ -13,8 +13,12 @@ using Iso3 = Eigen::Isometry3d;
 using Quat = Eigen::Quaterniond;
 
 constexpr double kPi = 3.14159265358979323846;
-inline constexpr double deg2rad(double deg) { return deg * kPi / 180.0; }
-inline constexpr double rad2deg(double rad) { return rad * 180.0 / kPi; }
+inline constexpr double deg2rad(double deg) {
+  return deg * kPi / 180.0;
+}
+inline constexpr double rad2deg(double rad) {
+  return rad * 180.0 / kPi;
+}
 
 /// URDF rotation convention: R = Rz(yaw) * Ry(pitch) * Rx(roll), fixed axes.
 inline Mat3 rpy_to_matrix(double roll, double pitch, double yaw) {
@@ -36,7 +40,9 @@ inline Iso3 planar_pose(double x, double y, double z, double yaw) {
 }
 
 /// Rotation about the z axis by `angle` [rad].
-inline Mat3 rot_z(double angle) { return Eigen::AngleAxisd(angle, Vec3::UnitZ()).toRotationMatrix(); }
+inline Mat3 rot_z(double angle) {
+  return Eigen::AngleAxisd(angle, Vec3::UnitZ()).toRotationMatrix();
+}
 
 /// Projects the rotation part back onto SO(3) (polar decomposition through the SVD).
 inline Iso3 orthonormalized(const Iso3& T) {

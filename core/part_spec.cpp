@@ -72,13 +72,15 @@ Seam parse_seam(const YAML::Node& node, size_t index, const std::string& file) {
   // n and m are made orthogonal to the travel direction by the planner; they must not be parallel to it.
   for (double f : {0.0, 0.5, 1.0}) {
     const Vec3 d = s.direction_at(f);
-    if (std::abs(d.dot(s.normal)) > 0.999) throw input_error(file, where + "normal is parallel to the travel direction");
+    if (std::abs(d.dot(s.normal)) > 0.999)
+      throw input_error(file, where + "normal is parallel to the travel direction");
     if (std::abs(d.dot(s.wall_normal_at(f))) > 0.999)
       throw input_error(file, where + "wall_normal is parallel to the travel direction");
   }
   s.work_angle_rad = yaml::angle(node, "work_angle", file);
   s.travel_angle_rad = yaml::angle(node, "travel_angle", file);
-  if (node["torch_roll_deg"] && node["torch_roll_deg"].IsScalar() && node["torch_roll_deg"].Scalar() == "free") {
+  if (node["torch_roll_deg"] && node["torch_roll_deg"].IsScalar() &&
+      node["torch_roll_deg"].Scalar() == "free") {
     s.torch_roll_rad.reset();
   } else {
     s.torch_roll_rad = yaml::angle(node, "torch_roll", file);

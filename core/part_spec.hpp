@@ -11,7 +11,8 @@
 namespace weldtwin {
 
 /// One weld seam in the part frame. A line runs start -> end; an arc turns about `axis` through `center`
-/// from `start` by `sweep_rad` (counter-clockwise about the axis). DESIGN.md fixes the torch angle convention.
+/// from `start` by `sweep_rad` (counter-clockwise about the axis). DESIGN.md fixes the torch angle
+/// convention.
 struct Seam {
   enum class Kind { kLine, kArc };
   std::string name;
@@ -36,14 +37,14 @@ struct Seam {
 };
 
 struct ClampSite {
-  Vec3 grip = Vec3::Zero();            ///< pad contact point on a top face, part frame [m]
-  Eigen::Vector2d outward{1.0, 0.0};   ///< horizontal unit direction from the part towards the clamp body
+  Vec3 grip = Vec3::Zero();           ///< pad contact point on a top face, part frame [m]
+  Eigen::Vector2d outward{1.0, 0.0};  ///< horizontal unit direction from the part towards the clamp body
 };
 
 struct PartSpec {
   std::string name;
-  std::string source;      ///< the YAML file
-  std::string mesh_path;   ///< resolved path of the mesh
+  std::string source;     ///< the YAML file
+  std::string mesh_path;  ///< resolved path of the mesh
   double height_m = 0.0;
   std::vector<Eigen::Vector2d> footprint;  ///< outline on the table (part frame), counter-clockwise
   std::vector<ClampSite> clamp_sites;

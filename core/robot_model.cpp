@@ -1,11 +1,11 @@
 #include "core/robot_model.hpp"
 
+#include <console_bridge/console.h>
+#include <urdf_parser/urdf_parser.h>
 #include <fstream>
 #include <map>
 #include <sstream>
 #include <stdexcept>
-#include <console_bridge/console.h>
-#include <urdf_parser/urdf_parser.h>
 
 #include "core/error.hpp"
 
@@ -18,8 +18,8 @@ Iso3 to_iso(const urdf::Pose& p) {
 }
 
 // Converts a URDF geometry into a primitive; meshes are not used by the robot model (primitives only).
-LinkGeometry to_geometry(const urdf::GeometrySharedPtr& g, const urdf::Pose& origin, const std::string& source,
-                         const std::string& link) {
+LinkGeometry to_geometry(const urdf::GeometrySharedPtr& g, const urdf::Pose& origin,
+                         const std::string& source, const std::string& link) {
   LinkGeometry out;
   out.T_link_geom = to_iso(origin);
   switch (g->type) {
@@ -42,7 +42,8 @@ LinkGeometry to_geometry(const urdf::GeometrySharedPtr& g, const urdf::Pose& ori
       break;
     }
     default:
-      throw input_error(source, "link '" + link + "' uses a mesh; the robot model takes box, cylinder, sphere");
+      throw input_error(source,
+                        "link '" + link + "' uses a mesh; the robot model takes box, cylinder, sphere");
   }
   if ((out.size.array() < 0.0).any()) throw input_error(source, "link '" + link + "' has a negative size");
   return out;
@@ -111,8 +112,8 @@ RobotModel RobotModel::from_string(const std::string& urdf_xml, const std::strin
     for (const auto& v : link->visual_array) {
       if (!v || !v->geometry) continue;
       LinkGeometry g = to_geometry(v->geometry, v->origin, source, link->name);
-      if (v->material) g.rgba << v->material->color.r, v->material->color.g, v->material->color.b,
-          v->material->color.a;
+      if (v->material)
+        g.rgba << v->material->color.r, v->material->color.g, v->material->color.b, v->material->color.a;
       out.visual.push_back(g);
     }
     if (auto in = link->inertial) {
@@ -124,11 +125,13 @@ RobotModel RobotModel::from_string(const std::string& urdf_xml, const std::strin
     const int index = static_cast<int>(model.links_.size());
     model.links_.push_back(std::move(out));
     // Children in reverse so they come out of the stack in file order.
-    for (auto it = link->child_links.rbegin(); it != link->child_links.rend(); ++it) stack.push_back({*it, index});
+    for (auto it = link->child_links.rbegin(); it != link->child_links.rend(); ++it)
+      stack.push_back({*it, index});
   }
 
   if (model.dof() != 6)
-    throw input_error(source, "expected a 6-joint arm, found " + std::to_string(model.dof()) + " revolute joints");
+    throw input_error(source,
+                      "expected a 6-joint arm, found " + std::to_string(model.dof()) + " revolute joints");
   // Acceleration limits are not part of URDF; these are the Aubo i5's published figures (J1-J3, J4-J6).
   const double accel[6] = {17.2, 17.2, 17.2, 20.7, 20.7, 20.7};
   for (const auto& link : model.links_) {

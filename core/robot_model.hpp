@@ -17,7 +17,8 @@ struct LinkGeometry {
   enum class Type { kBox, kCylinder, kSphere };
   Type type = Type::kBox;
   Iso3 T_link_geom = Iso3::Identity();
-  Vec3 size = Vec3::Zero();  ///< box: full extents [m]; cylinder: (radius, length, 0) [m]; sphere: (radius, 0, 0)
+  Vec3 size =
+      Vec3::Zero();  ///< box: full extents [m]; cylinder: (radius, length, 0) [m]; sphere: (radius, 0, 0)
   Eigen::Vector4d rgba{0.7, 0.7, 0.7, 1.0};
 };
 
@@ -29,11 +30,11 @@ struct LinkInertial {
 
 struct RobotLink {
   std::string name;
-  int parent = -1;                       ///< index into RobotModel::links(), -1 for the root
-  std::string joint_name;                ///< joint from the parent ("" for the root)
+  int parent = -1;                         ///< index into RobotModel::links(), -1 for the root
+  std::string joint_name;                  ///< joint from the parent ("" for the root)
   Iso3 T_parent_joint = Iso3::Identity();  ///< joint origin in the parent link frame
-  Vec3 axis = Vec3::UnitZ();             ///< joint axis in the child link frame (revolute joints)
-  int q_index = -1;                      ///< index of the actuated joint in q, -1 for fixed joints
+  Vec3 axis = Vec3::UnitZ();               ///< joint axis in the child link frame (revolute joints)
+  int q_index = -1;                        ///< index of the actuated joint in q, -1 for fixed joints
   double lower_rad = 0.0, upper_rad = 0.0, velocity_rad_s = 0.0;
   std::vector<LinkGeometry> collision;
   std::vector<LinkGeometry> visual;

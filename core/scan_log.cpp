@@ -82,7 +82,8 @@ ScanLog ScanLog::read(const std::string& path) {
   if (!in) throw input_error(path, "cannot open the scan log");
   std::string magic, header_line;
   if (!std::getline(in, magic)) throw input_error(path, "empty file, not a scan log");
-  if (magic != kMagic) throw input_error(path, "not a weldtwin scan log (first line is not '" + std::string(kMagic) + "')");
+  if (magic != kMagic)
+    throw input_error(path, "not a weldtwin scan log (first line is not '" + std::string(kMagic) + "')");
   if (!std::getline(in, header_line)) throw input_error(path, "scan log header missing");
   nlohmann::json h;
   try {
@@ -101,7 +102,8 @@ ScanLog ScanLog::read(const std::string& path) {
     nt = h.at("num_turns").get<size_t>();
     ns = h.at("num_samples").get<size_t>();
     nj = h.at("num_joint_states").get<size_t>();
-    if (h.value("byte_order", "little") != "little") throw input_error(path, "only little-endian logs are supported");
+    if (h.value("byte_order", "little") != "little")
+      throw input_error(path, "only little-endian logs are supported");
   } catch (const nlohmann::json::exception& e) {
     throw input_error(path, std::string("scan log header: ") + e.what());
   }
@@ -118,7 +120,8 @@ ScanLog ScanLog::read(const std::string& path) {
     t.t_start_s = get<double>(p);
     t.first = get<uint32_t>(p);
     t.count = get<uint32_t>(p);
-    if (static_cast<size_t>(t.first) + t.count > ns) throw input_error(path, "a turn points past the last sample");
+    if (static_cast<size_t>(t.first) + t.count > ns)
+      throw input_error(path, "a turn points past the last sample");
   }
   log.samples.resize(ns);
   for (auto& s : log.samples) {
@@ -134,8 +137,10 @@ ScanLog ScanLog::read(const std::string& path) {
     JointState& j = log.joints[i];
     j.t_s = get<double>(p);
     for (int k = 0; k < 6; ++k) j.q[k] = get<double>(p);
-    if (!std::isfinite(j.t_s) || !j.q.allFinite()) throw input_error(path, "joint state with a non-finite value");
-    if (i > 0 && j.t_s <= log.joints[i - 1].t_s) throw input_error(path, "joint states are not increasing in time");
+    if (!std::isfinite(j.t_s) || !j.q.allFinite())
+      throw input_error(path, "joint state with a non-finite value");
+    if (i > 0 && j.t_s <= log.joints[i - 1].t_s)
+      throw input_error(path, "joint states are not increasing in time");
   }
   return log;
 }

@@ -78,7 +78,8 @@ double angle(const YAML::Node& node, const std::string& key, const std::string& 
   return *v;
 }
 
-std::vector<double> numbers(const YAML::Node& node, const std::string& key, size_t n, const std::string& file) {
+std::vector<double> numbers(const YAML::Node& node, const std::string& key, size_t n,
+                            const std::string& file) {
   const YAML::Node v = node[key];
   if (!v) throw input_error(file, "missing field '" + key + "'");
   if (!v.IsSequence() || v.size() != n)

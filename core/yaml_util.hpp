@@ -2,10 +2,10 @@
 // (DESIGN.md): lengths as NAME_m or NAME_mm, angles as NAME_deg or NAME_rad, speeds as NAME_m_s or NAME_mm_s.
 #pragma once
 
+#include <yaml-cpp/yaml.h>
 #include <optional>
 #include <string>
 #include <vector>
-#include <yaml-cpp/yaml.h>
 
 #include "core/geometry.hpp"
 
@@ -28,7 +28,8 @@ std::optional<double> maybe_angle(const YAML::Node& node, const std::string& key
 double angle(const YAML::Node& node, const std::string& key, const std::string& file);
 
 /// A list of exactly n numbers.
-std::vector<double> numbers(const YAML::Node& node, const std::string& key, size_t n, const std::string& file);
+std::vector<double> numbers(const YAML::Node& node, const std::string& key, size_t n,
+                            const std::string& file);
 Vec3 vec3(const YAML::Node& node, const std::string& key, const std::string& file);
 
 /// Resolves a path given in a YAML file relative to that file's folder.

@@ -1,10 +1,10 @@
 #include "perception/cloud_io.hpp"
 
-#include <cmath>
-#include <filesystem>
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
 #include <pcl/point_types.h>
+#include <cmath>
+#include <filesystem>
 
 #include "core/error.hpp"
 

@@ -35,7 +35,8 @@ bool interpolate_joints(const std::vector<JointState>& joints, double t, JointVe
 
 AssembledCloud assemble_scan(const ScanLog& log, const RobotModel& robot, const AssemblySetting& setting) {
   const int lidar = robot.link_index(log.lidar_frame);
-  if (lidar < 0) throw std::invalid_argument("robot '" + robot.name() + "' has no link '" + log.lidar_frame + "'");
+  if (lidar < 0)
+    throw std::invalid_argument("robot '" + robot.name() + "' has no link '" + log.lidar_frame + "'");
   if (log.joint_names != robot.joint_names())
     throw std::invalid_argument("scan log joints do not match robot '" + robot.name() + "'");
   AssembledCloud cloud;

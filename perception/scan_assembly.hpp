@@ -1,6 +1,6 @@
 // Scan assembly, shared by simulated and real sweeps: ScanLog + robot forward kinematics + LiDAR extrinsics
-// (the URDF's lidar link) -> a base-frame point cloud. Joint states are interpolated linearly at each sample's
-// own time, so the arm may move during a turn.
+// (the URDF's lidar link) -> a base-frame point cloud. Joint states are interpolated linearly at each
+// sample's own time, so the arm may move during a turn.
 #pragma once
 
 #include <cstdint>
@@ -16,14 +16,15 @@ struct AssemblySetting {
 };
 
 struct AssembledCloud {
-  std::vector<Vec3> points_base;        ///< [m], base frame
-  std::vector<uint32_t> sample_index;   ///< the ScanLog sample each point came from
+  std::vector<Vec3> points_base;         ///< [m], base frame
+  std::vector<uint32_t> sample_index;    ///< the ScanLog sample each point came from
   size_t dropped_outside_joint_log = 0;  ///< samples with no joint state before and after them
 };
 
 /// Assembles through FK of the logged joint states. Throws std::invalid_argument if the robot has no link
 /// named by the log's lidar frame, or if the log's joint names differ from the robot's.
-AssembledCloud assemble_scan(const ScanLog& log, const RobotModel& robot, const AssemblySetting& setting = {});
+AssembledCloud assemble_scan(const ScanLog& log, const RobotModel& robot,
+                             const AssemblySetting& setting = {});
 
 /// Assembles with a known sensor pose for every sample (e.g. the twin's own), T_base_lidar[i] for sample i.
 AssembledCloud assemble_scan(const ScanLog& log, const std::vector<Iso3>& T_base_lidar,

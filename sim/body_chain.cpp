@@ -10,14 +10,16 @@ BodyChain::BodyChain(const mjModel* m, int body, const std::vector<int>& qpos_ad
   for (int b = body; b > 0; b = m->body_parentid[b]) {
     Link link;
     const mjtNum* q = m->body_quat + 4 * b;
-    link.T_parent_body = make_transform(Vec3(m->body_pos[3 * b], m->body_pos[3 * b + 1], m->body_pos[3 * b + 2]),
-                                        Quat(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix());
+    link.T_parent_body =
+        make_transform(Vec3(m->body_pos[3 * b], m->body_pos[3 * b + 1], m->body_pos[3 * b + 2]),
+                       Quat(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix());
     if (m->body_jntnum[b] > 1) throw std::invalid_argument("BodyChain: a body with several joints");
     if (m->body_jntnum[b] == 1) {
       const int j = m->body_jntadr[b];
       if (m->jnt_type[j] != mjJNT_HINGE) throw std::invalid_argument("BodyChain: only hinge joints");
       const mjtNum* p = m->jnt_pos + 3 * j;
-      if (p[0] != 0.0 || p[1] != 0.0 || p[2] != 0.0) throw std::invalid_argument("BodyChain: hinge off the origin");
+      if (p[0] != 0.0 || p[1] != 0.0 || p[2] != 0.0)
+        throw std::invalid_argument("BodyChain: hinge off the origin");
       const auto it = std::find(qpos_adr.begin(), qpos_adr.end(), m->jnt_qposadr[j]);
       if (it == qpos_adr.end()) throw std::invalid_argument("BodyChain: a joint that is not the arm's");
       link.q_index = static_cast<int>(it - qpos_adr.begin());

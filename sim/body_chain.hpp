@@ -1,5 +1,5 @@
-// Forward kinematics of one MuJoCo body straight from the compiled model (body offsets and hinge axes), without
-// mj_kinematics: cheap enough to pose the LiDAR at every one of its samples. Hinge joints only.
+// Forward kinematics of one MuJoCo body straight from the compiled model (body offsets and hinge axes),
+// without mj_kinematics: cheap enough to pose the LiDAR at every one of its samples. Hinge joints only.
 #pragma once
 
 #include <limits>
@@ -13,7 +13,8 @@ namespace weldtwin {
 
 class BodyChain {
  public:
-  /// The chain from the world to `body`; `qpos_adr[i]` is the qpos address of joint i of the arm (URDF order).
+  /// The chain from the world to `body`; `qpos_adr[i]` is the qpos address of joint i of the arm (URDF
+  /// order).
   BodyChain(const mjModel* m, int body, const std::vector<int>& qpos_adr);
   /// T_world_body for arm joints q.
   Iso3 pose(const JointVector& q) const;

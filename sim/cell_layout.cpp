@@ -17,7 +17,9 @@ bool on_table(const TableSpec& t, const Vec2& p, double margin = 0.0) {
          p.y() <= t.y_max_m - margin;
 }
 
-Vec2 xy(const Vec3& p) { return p.head<2>(); }
+Vec2 xy(const Vec3& p) {
+  return p.head<2>();
+}
 
 // A circle that holds an object's footprint on the table, for overlap checks.
 struct Disc {
@@ -33,11 +35,14 @@ std::vector<Disc> clamp_discs(const ClampPlacement& c) {
 }
 
 Disc clutter_disc(const ClutterItem& item) {
-  const double r = item.type == ClutterItem::Type::kBox ? 0.5 * item.size_m.head<2>().norm() : 0.5 * item.size_m.x();
+  const double r =
+      item.type == ClutterItem::Type::kBox ? 0.5 * item.size_m.head<2>().norm() : 0.5 * item.size_m.x();
   return {Vec2(item.x_m, item.y_m), r};
 }
 
-bool overlaps(const Disc& a, const Disc& b, double margin) { return (a.c - b.c).norm() < a.r + b.r + margin; }
+bool overlaps(const Disc& a, const Disc& b, double margin) {
+  return (a.c - b.c).norm() < a.r + b.r + margin;
+}
 
 // Distance from p to the part's outline polygon (0 inside).
 double distance_to_part(const PartSpec& part, const Iso3& T_base_part, const Vec2& p) {
@@ -48,7 +53,8 @@ double distance_to_part(const PartSpec& part, const Iso3& T_base_part, const Vec
   double best = 1e9;
   for (size_t i = 0, j = fp.size() - 1; i < fp.size(); j = i++) {
     const Vec2 &a = fp[i], &b = fp[j];
-    if ((a.y() > q.y()) != (b.y() > q.y()) && q.x() < (b.x() - a.x()) * (q.y() - a.y()) / (b.y() - a.y()) + a.x())
+    if ((a.y() > q.y()) != (b.y() > q.y()) &&
+        q.x() < (b.x() - a.x()) * (q.y() - a.y()) / (b.y() - a.y()) + a.x())
       inside = !inside;
     const Vec2 ab = b - a;
     const double s = std::clamp((q - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
@@ -83,19 +89,21 @@ std::string part_problem(const CellSpec& cell, const PartSpec& part, const Iso3&
     why << "part floats " << z << " m above the table (it must rest on it)";
     return why.str();
   }
-  if ((T.linear().col(2) - Vec3::UnitZ()).norm() > 1e-6) return "part must stand upright on the table (yaw only)";
+  if ((T.linear().col(2) - Vec3::UnitZ()).norm() > 1e-6)
+    return "part must stand upright on the table (yaw only)";
   const PlacementSpec& pl = cell.placement;
   const double bearing = std::atan2(T.translation().y(), T.translation().x());
   if (std::abs(bearing) > pl.max_bearing_rad + 1e-9) {
-    why << "part is out of reach: bearing " << rad2deg(bearing) << " deg exceeds " << rad2deg(pl.max_bearing_rad);
+    why << "part is out of reach: bearing " << rad2deg(bearing) << " deg exceeds "
+        << rad2deg(pl.max_bearing_rad);
     return why.str();
   }
   for (const Seam& s : part.seams) {
     for (int k = 0; k <= 16; ++k) {
       const double r = xy(T * s.point_at(k / 16.0)).norm();
       if (r > pl.max_radius_m + 1e-9 || r < pl.min_radius_m - 1e-9) {
-        why << "part is out of reach: seam '" << s.name << "' passes " << r << " m from the robot axis (reach "
-            << pl.min_radius_m << "-" << pl.max_radius_m << " m)";
+        why << "part is out of reach: seam '" << s.name << "' passes " << r
+            << " m from the robot axis (reach " << pl.min_radius_m << "-" << pl.max_radius_m << " m)";
         return why.str();
       }
     }
@@ -132,7 +140,8 @@ std::string layout_problem(const CellSpec& cell, const PartSpec& part, const Cel
           return "clamp at site " + std::to_string(c.site) + " stands off the table";
     for (const Disc& d : clamp_discs(c)) {
       for (const Disc& t : taken)
-        if (overlaps(d, t, 0.0)) return "clamps at site " + std::to_string(c.site) + " collide with another clamp";
+        if (overlaps(d, t, 0.0))
+          return "clamps at site " + std::to_string(c.site) + " collide with another clamp";
       if (d.c.norm() < cell.placement.base_keepout_m + d.r) return "a clamp overlaps the robot base";
     }
     for (const Disc& d : clamp_discs(c)) taken.push_back(d);
@@ -153,17 +162,20 @@ std::string layout_problem(const CellSpec& cell, const PartSpec& part, const Cel
 CellLayout make_layout(const CellSpec& cell, const PartSpec& part, std::optional<uint64_t> seed) {
   CellLayout layout;
   if (!seed) {
-    if (!cell.part_pose) throw input_error(cell.source, "part has no pose (x_m, y_m): give one or pass --seed");
+    if (!cell.part_pose)
+      throw input_error(cell.source, "part has no pose (x_m, y_m): give one or pass --seed");
     const PartPose& p = *cell.part_pose;
     layout.T_base_part = planar_pose(p.x_m, p.y_m, cell.table.top_z_m + p.z_m, p.yaw_rad);
     for (int site : cell.clamp_sites) {
       if (site < 0 || site >= static_cast<int>(part.clamp_sites.size()))
         throw input_error(cell.source, "clamp site " + std::to_string(site) + " does not exist on part '" +
-                                           part.name + "' (it has " + std::to_string(part.clamp_sites.size()) + ")");
+                                           part.name + "' (it has " +
+                                           std::to_string(part.clamp_sites.size()) + ")");
       layout.clamps.push_back(place_clamp(part, layout.T_base_part, site));
     }
     layout.clutter = cell.clutter;
-    if (std::string why = layout_problem(cell, part, layout); !why.empty()) throw input_error(cell.source, why);
+    if (std::string why = layout_problem(cell, part, layout); !why.empty())
+      throw input_error(cell.source, why);
     return layout;
   }
 
@@ -175,8 +187,9 @@ CellLayout make_layout(const CellSpec& cell, const PartSpec& part, std::optional
   bool placed = false;
   for (int attempt = 0; attempt < 20000 && !placed; ++attempt) {
     // Uniform over the ring sector by area.
-    const double r = std::sqrt(pl.min_radius_m * pl.min_radius_m +
-                               u01(rng) * (pl.max_radius_m * pl.max_radius_m - pl.min_radius_m * pl.min_radius_m));
+    const double r =
+        std::sqrt(pl.min_radius_m * pl.min_radius_m +
+                  u01(rng) * (pl.max_radius_m * pl.max_radius_m - pl.min_radius_m * pl.min_radius_m));
     const double bearing = (2.0 * u01(rng) - 1.0) * pl.max_bearing_rad;
     const double yaw = 2.0 * kPi * u01(rng);
     layout.T_base_part = planar_pose(r * std::cos(bearing), r * std::sin(bearing), cell.table.top_z_m, yaw);
@@ -195,7 +208,8 @@ CellLayout make_layout(const CellSpec& cell, const PartSpec& part, std::optional
   }
 
   const int clutter_wanted = static_cast<int>(rng() % 4);
-  for (int attempt = 0; attempt < 400 && static_cast<int>(layout.clutter.size()) < clutter_wanted; ++attempt) {
+  for (int attempt = 0; attempt < 400 && static_cast<int>(layout.clutter.size()) < clutter_wanted;
+       ++attempt) {
     ClutterItem item;
     item.type = u01(rng) < 0.6 ? ClutterItem::Type::kBox : ClutterItem::Type::kCylinder;
     if (item.type == ClutterItem::Type::kBox) {

@@ -1,6 +1,6 @@
-// Where things stand in a cell: the part pose, its clamps and clutter, from the cell file or drawn from a seed.
-// Checks that a layout is physically possible: the part rests on the table, its seams are within reach, the
-// clamps touch the part and stand on the table, nothing overlaps.
+// Where things stand in a cell: the part pose, its clamps and clutter, from the cell file or drawn from a
+// seed. Checks that a layout is physically possible: the part rests on the table, its seams are within reach,
+// the clamps touch the part and stand on the table, nothing overlaps.
 #pragma once
 
 #include <cstdint>
@@ -15,9 +15,9 @@ namespace weldtwin {
 /// A toggle clamp. Clamp frame: origin at the pad's contact point on the part, x horizontal towards the clamp
 /// body, z up. The pad presses on the part's top face; the base stands on the table.
 struct ClampPlacement {
-  int site = 0;                       ///< index into PartSpec::clamp_sites
+  int site = 0;  ///< index into PartSpec::clamp_sites
   Iso3 T_base_clamp = Iso3::Identity();
-  double grip_height_m = 0.0;         ///< height of the contact point above the table top
+  double grip_height_m = 0.0;  ///< height of the contact point above the table top
 };
 
 struct CellLayout {
@@ -31,7 +31,7 @@ struct CellLayout {
 struct ClampDims {
   static constexpr double kBaseStart = 0.06;  ///< base block starts this far out from the pad [m]
   static constexpr double kBaseEnd = 0.14;
-  static constexpr double kReach = 0.23;       ///< farthest point (handle tip) from the pad [m]
+  static constexpr double kReach = 0.23;  ///< farthest point (handle tip) from the pad [m]
   static constexpr double kHalfWidth = 0.03;
   static constexpr double kPadRadius = 0.011;  ///< rubber pad on the part
 };

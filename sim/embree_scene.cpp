@@ -37,25 +37,38 @@ struct Context {
 };
 
 // Exact intersection of a ray given in the shape's part frame.
-double intersect_shape(const EmbreeScene::Shape& s, int prim, const Vec3& o_part, const Vec3& d_part, double t_min,
-                       Vec3* n_part) {
+double intersect_shape(const EmbreeScene::Shape& s, int prim, const Vec3& o_part, const Vec3& d_part,
+                       double t_min, Vec3* n_part) {
   if (!s.triangles.empty()) {
     const Eigen::Vector3i& f = s.triangles[static_cast<size_t>(prim)];
     return raygeom::triangle(o_part, d_part, s.vertices[static_cast<size_t>(f[0])],
-                             s.vertices[static_cast<size_t>(f[1])], s.vertices[static_cast<size_t>(f[2])], t_min,
-                             n_part);
+                             s.vertices[static_cast<size_t>(f[1])], s.vertices[static_cast<size_t>(f[2])],
+                             t_min, n_part);
   }
   const Vec3 o = s.T_geom_part * o_part, d = s.T_geom_part.linear() * d_part;
   Vec3 n;
   double t = -1.0;
   switch (s.type) {
-    case mjGEOM_PLANE: t = raygeom::plane(o, d, s.size, t_min, &n); break;
-    case mjGEOM_SPHERE: t = raygeom::sphere(o, d, s.size[0], t_min, &n); break;
-    case mjGEOM_ELLIPSOID: t = raygeom::ellipsoid(o, d, s.size, t_min, &n); break;
-    case mjGEOM_CAPSULE: t = raygeom::capsule(o, d, s.size[0], s.size[1], t_min, &n); break;
-    case mjGEOM_CYLINDER: t = raygeom::cylinder(o, d, s.size[0], s.size[1], t_min, &n); break;
-    case mjGEOM_BOX: t = raygeom::box(o, d, s.size, t_min, &n); break;
-    default: return -1.0;
+    case mjGEOM_PLANE:
+      t = raygeom::plane(o, d, s.size, t_min, &n);
+      break;
+    case mjGEOM_SPHERE:
+      t = raygeom::sphere(o, d, s.size[0], t_min, &n);
+      break;
+    case mjGEOM_ELLIPSOID:
+      t = raygeom::ellipsoid(o, d, s.size, t_min, &n);
+      break;
+    case mjGEOM_CAPSULE:
+      t = raygeom::capsule(o, d, s.size[0], s.size[1], t_min, &n);
+      break;
+    case mjGEOM_CYLINDER:
+      t = raygeom::cylinder(o, d, s.size[0], s.size[1], t_min, &n);
+      break;
+    case mjGEOM_BOX:
+      t = raygeom::box(o, d, s.size, t_min, &n);
+      break;
+    default:
+      return -1.0;
   }
   if (t >= 0.0 && n_part) *n_part = s.T_part_geom.linear() * n;
   return t;
@@ -75,9 +88,15 @@ void user_bounds(const RTCBoundsFunctionArguments* args) {
         half[k] = std::abs(row.x()) * sx + std::abs(row.y()) * sy;
         break;
       }
-      case mjGEOM_SPHERE: half[k] = s->size[0]; break;
-      case mjGEOM_CAPSULE: half[k] = axial * s->size[1] + s->size[0]; break;
-      case mjGEOM_CYLINDER: half[k] = axial * s->size[1] + radial * s->size[0]; break;
+      case mjGEOM_SPHERE:
+        half[k] = s->size[0];
+        break;
+      case mjGEOM_CAPSULE:
+        half[k] = axial * s->size[1] + s->size[0];
+        break;
+      case mjGEOM_CYLINDER:
+        half[k] = axial * s->size[1] + radial * s->size[0];
+        break;
       default:  // ellipsoid, box
         half[k] = Vec3(row.x() * s->size[0], row.y() * s->size[1], row.z() * s->size[2]).norm();
         break;
@@ -148,9 +167,10 @@ void triangulate(const mjModel* m, int g, EmbreeScene::Shape& s) {
   const Iso3& T = s.T_part_geom;
   if (s.type == mjGEOM_BOX) {
     for (int k = 0; k < 8; ++k)
-      s.vertices.push_back(T * Vec3((k & 1 ? 1 : -1) * s.size[0], (k & 2 ? 1 : -1) * s.size[1],
-                                    (k & 4 ? 1 : -1) * s.size[2]));
-    const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+      s.vertices.push_back(
+          T * Vec3((k & 1 ? 1 : -1) * s.size[0], (k & 2 ? 1 : -1) * s.size[1], (k & 4 ? 1 : -1) * s.size[2]));
+    const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
+                             {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
     for (const auto& q : quads) {
       s.triangles.emplace_back(q[0], q[1], q[2]);
       s.triangles.emplace_back(q[0], q[2], q[3]);
@@ -178,11 +198,16 @@ double bounding_radius(const EmbreeScene::Shape& s) {
     return r;
   }
   switch (s.type) {
-    case mjGEOM_PLANE: return 1e3;
-    case mjGEOM_SPHERE: return s.size[0];
-    case mjGEOM_CAPSULE: return s.size[0] + s.size[1];
-    case mjGEOM_CYLINDER: return std::hypot(s.size[0], s.size[1]);
-    default: return Vec3(s.size[0], s.size[1], s.size[2]).norm();
+    case mjGEOM_PLANE:
+      return 1e3;
+    case mjGEOM_SPHERE:
+      return s.size[0];
+    case mjGEOM_CAPSULE:
+      return s.size[0] + s.size[1];
+    case mjGEOM_CYLINDER:
+      return std::hypot(s.size[0], s.size[1]);
+    default:
+      return Vec3(s.size[0], s.size[1], s.size[2]).norm();
   }
 }
 
@@ -220,14 +245,15 @@ EmbreeScene::EmbreeScene(const mjModel* m, const mjData* d) {
     RTCGeometry geom;
     if (!s->triangles.empty()) {
       geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
-      auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                            3 * sizeof(float), s->vertices.size()));
+      auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(
+          geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), s->vertices.size()));
       for (size_t k = 0; k < s->vertices.size(); ++k)
         for (int c = 0; c < 3; ++c) v[3 * k + static_cast<size_t>(c)] = static_cast<float>(s->vertices[k][c]);
-      auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                                 3 * sizeof(unsigned), s->triangles.size()));
+      auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+          geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), s->triangles.size()));
       for (size_t k = 0; k < s->triangles.size(); ++k)
-        for (int c = 0; c < 3; ++c) idx[3 * k + static_cast<size_t>(c)] = static_cast<unsigned>(s->triangles[k][c]);
+        for (int c = 0; c < 3; ++c)
+          idx[3 * k + static_cast<size_t>(c)] = static_cast<unsigned>(s->triangles[k][c]);
       triangles_ += s->triangles.size();
     } else {
       geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
@@ -279,7 +305,8 @@ std::vector<int> EmbreeScene::moving_bodies() const {
 
 void EmbreeScene::View::update(const mjData* d) {
   std::vector<Iso3> poses;
-  for (const MovingBody& b : scene_.moving_) poses.push_back(pose_of(d->xpos + 3 * b.body, d->xmat + 9 * b.body));
+  for (const MovingBody& b : scene_.moving_)
+    poses.push_back(pose_of(d->xpos + 3 * b.body, d->xmat + 9 * b.body));
   update(poses);
 }
 
@@ -292,7 +319,8 @@ void EmbreeScene::View::update(const std::vector<Iso3>& T_world_body) {
   }
 }
 
-void EmbreeScene::View::restrict_to_plane(const Vec3& origin, const Vec3& normal, double slack_m, double slack_rad) {
+void EmbreeScene::View::restrict_to_plane(const Vec3& origin, const Vec3& normal, double slack_m,
+                                          double slack_rad) {
   for (size_t i = 0; i < scene_.moving_.size(); ++i) {
     const MovingBody& b = scene_.moving_[i];
     const Vec3 n = T_body_world_[i].linear() * normal;  // the plane normal in the body frame
@@ -309,9 +337,14 @@ void EmbreeScene::View::restrict_to_plane(const Vec3& origin, const Vec3& normal
         case mjGEOM_CYLINDER:
           extent = std::abs(ng.z()) * s.size[1] + std::sqrt(std::max(0.0, 1.0 - ng.z() * ng.z())) * s.size[0];
           break;
-        case mjGEOM_CAPSULE: extent = std::abs(ng.z()) * s.size[1] + s.size[0]; break;
-        case mjGEOM_SPHERE: extent = s.size[0]; break;
-        default: break;
+        case mjGEOM_CAPSULE:
+          extent = std::abs(ng.z()) * s.size[1] + s.size[0];
+          break;
+        case mjGEOM_SPHERE:
+          extent = s.size[0];
+          break;
+        default:
+          break;
       }
       const Vec3 c = s.T_part_geom.translation() - o;
       const double reach = c.norm() + s.bound_radius;

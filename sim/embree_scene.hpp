@@ -42,8 +42,8 @@ class EmbreeScene {
     /// Poses the moving bodies: T_world_body[i] for moving_bodies()[i].
     void update(const std::vector<Iso3>& T_world_body);
     /// Promises that the next rays lie in the plane through `origin` with unit normal `normal`, give or take
-    /// `slack_m` plus `slack_rad` times the distance from the origin; moving shapes that cannot meet such a ray
-    /// are skipped until the next update(). A LiDAR's rays all lie in its scan plane.
+    /// `slack_m` plus `slack_rad` times the distance from the origin; moving shapes that cannot meet such a
+    /// ray are skipped until the next update(). A LiDAR's rays all lie in its scan plane.
     void restrict_to_plane(const Vec3& origin, const Vec3& normal, double slack_m, double slack_rad);
     /// The first hit along origin + t * dir, t in [t_min, t_max]; dir must be unit length.
     RayHit cast(const Vec3& origin, const Vec3& dir, double t_min, double t_max) const;

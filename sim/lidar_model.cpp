@@ -9,7 +9,9 @@
 
 namespace weldtwin {
 
-int LidarSetting::samples_per_turn() const { return static_cast<int>(std::lround(sample_rate_hz / turn_rate_hz)); }
+int LidarSetting::samples_per_turn() const {
+  return static_cast<int>(std::lround(sample_rate_hz / turn_rate_hz));
+}
 
 LidarSetting LidarSetting::noise_free() const {
   LidarSetting s = *this;
@@ -50,7 +52,8 @@ void LidarSetting::apply(const std::map<std::string, double>& overrides, const s
   }
   if (turn_rate_hz <= 0 || sample_rate_hz < turn_rate_hz || min_range_m < 0 || max_range_m <= min_range_m)
     throw input_error(source, "lidar: rates must be positive and min_range_m < max_range_m");
-  if (dropout_full_deg <= dropout_start_deg) throw input_error(source, "lidar: dropout_full_deg <= dropout_start_deg");
+  if (dropout_full_deg <= dropout_start_deg)
+    throw input_error(source, "lidar: dropout_full_deg <= dropout_start_deg");
 }
 
 LidarErrorModel::LidarErrorModel(const LidarSetting& setting, uint64_t stream)
@@ -66,7 +69,8 @@ double LidarErrorModel::measure(double range_m, double cos_incidence) {
     // The chance of losing the echo grows linearly with the angle from dropout_start_deg to dropout_full_deg.
     if (cos_incidence <= cos_full_) return 0.0;
     const double deg = rad2deg(std::acos(cos_incidence));
-    if (uniform_(rng_) < (deg - s_.dropout_start_deg) / (s_.dropout_full_deg - s_.dropout_start_deg)) return 0.0;
+    if (uniform_(rng_) < (deg - s_.dropout_start_deg) / (s_.dropout_full_deg - s_.dropout_start_deg))
+      return 0.0;
   }
   double r = range_m;
   if (s_.noise) r += (s_.noise_sigma_m + s_.noise_sigma_rel * range_m) * normal_(rng_);

@@ -10,30 +10,30 @@
 namespace weldtwin {
 
 struct LidarSetting {
-  double turn_rate_hz = 10.0;       ///< turns per second
-  double sample_rate_hz = 8000.0;   ///< samples per second (800 per turn: 0.45 deg)
-  double min_range_m = 0.15;        ///< closer returns are reported as no return
-  double max_range_m = 12.0;        ///< farther surfaces give no return
+  double turn_rate_hz = 10.0;      ///< turns per second
+  double sample_rate_hz = 8000.0;  ///< samples per second (800 per turn: 0.45 deg)
+  double min_range_m = 0.15;       ///< closer returns are reported as no return
+  double max_range_m = 12.0;       ///< farther surfaces give no return
 
   bool noise = true;                ///< Gaussian range noise
   double noise_sigma_m = 0.0015;    ///< constant part of the range sigma [m]
   double noise_sigma_rel = 0.0025;  ///< part proportional to the range [m per m]
 
-  bool quantize = true;             ///< round ranges to the reported resolution
-  double resolution_m = 0.00025;    ///< distance resolution (q2 millimetres) [m]
+  bool quantize = true;           ///< round ranges to the reported resolution
+  double resolution_m = 0.00025;  ///< distance resolution (q2 millimetres) [m]
 
   bool grazing_dropouts = true;     ///< returns vanish at grazing incidence
   double dropout_start_deg = 70.0;  ///< incidence angle where dropouts start
   double dropout_full_deg = 85.0;   ///< incidence angle beyond which nothing returns
 
-  bool mixed_pixels = true;             ///< at depth edges the beam straddles both surfaces
-  double mixed_pixel_jump_m = 0.03;     ///< minimum range jump between neighbours that counts as an edge
-  double mixed_pixel_probability = 0.5; ///< chance that a sample at an edge reports a blend
+  bool mixed_pixels = true;              ///< at depth edges the beam straddles both surfaces
+  double mixed_pixel_jump_m = 0.03;      ///< minimum range jump between neighbours that counts as an edge
+  double mixed_pixel_probability = 0.5;  ///< chance that a sample at an edge reports a blend
 
-  bool random_dropouts = true;            ///< occasional lost samples anywhere
+  bool random_dropouts = true;  ///< occasional lost samples anywhere
   double random_dropout_probability = 0.002;
 
-  uint64_t seed = 1;                ///< noise seed (the sweep mixes in the turn index)
+  uint64_t seed = 1;  ///< noise seed (the sweep mixes in the turn index)
 
   int samples_per_turn() const;
   /// All error effects off: exact ranges (still limited to [min_range, max_range]).

@@ -13,7 +13,9 @@
 namespace weldtwin {
 namespace {
 
-void throw_mujoco_error(const char* msg) { throw std::runtime_error(std::string("MuJoCo: ") + msg); }
+void throw_mujoco_error(const char* msg) {
+  throw std::runtime_error(std::string("MuJoCo: ") + msg);
+}
 void ignore_mujoco_warning(const char*) {}
 
 std::string read_text(const std::string& path) {
@@ -101,7 +103,8 @@ void robot_body_xml(std::ostringstream& os, const RobotModel& robot, int index) 
     num.vec("range", range, 2);
     os << " limited=\"true\" damping=\"2\" armature=\"0.05\"/>\n";
   }
-  // Collision geometry is what MuJoCo keeps of a URDF; the visual colours are carried over where they pair up.
+  // Collision geometry is what MuJoCo keeps of a URDF; the visual colours are carried over where they pair
+  // up.
   for (size_t g = 0; g < link.collision.size(); ++g) {
     LinkGeometry geom = link.collision[g];
     if (g < link.visual.size()) geom.rgba = link.visual[g].rgba;
@@ -162,7 +165,8 @@ void clutter_xml(std::ostringstream& os, int index, const ClutterItem& item) {
   if (item.type == ClutterItem::Type::kBox) {
     box_geom(os, n + "_box", Vec3::Zero(), 0.5 * item.size_m, Mat3::Identity(), "0.55 0.45 0.3 1");
   } else {
-    cylinder_geom(os, n + "_cyl", Vec3::Zero(), 0.5 * item.size_m.x(), 0.5 * item.size_m.z(), "0.3 0.5 0.3 1");
+    cylinder_geom(os, n + "_cyl", Vec3::Zero(), 0.5 * item.size_m.x(), 0.5 * item.size_m.z(),
+                  "0.3 0.5 0.3 1");
   }
   os << "</body>\n";
 }
@@ -171,12 +175,18 @@ void clutter_xml(std::ostringstream& os, int index, const ClutterItem& item) {
 
 const char* label_name(Label label) {
   switch (label) {
-    case Label::kNone: return "none";
-    case Label::kPart: return "part";
-    case Label::kTable: return "table";
-    case Label::kClamp: return "clamp";
-    case Label::kRobot: return "robot";
-    case Label::kOther: return "other";
+    case Label::kNone:
+      return "none";
+    case Label::kPart:
+      return "part";
+    case Label::kTable:
+      return "table";
+    case Label::kClamp:
+      return "clamp";
+    case Label::kRobot:
+      return "robot";
+    case Label::kOther:
+      return "other";
   }
   return "?";
 }
@@ -220,7 +230,8 @@ std::string compose_cell_mjcf(const CellSpec& cell, const PartSpec& part, const 
   num.pose(layout.T_base_part);
   bodies << ">\n<geom name=\"part\" type=\"mesh\" mesh=\"part_mesh\" rgba=\"0.62 0.64 0.68 1\"/>\n</body>\n";
   for (size_t i = 0; i < layout.clamps.size(); ++i) clamp_xml(bodies, static_cast<int>(i), layout.clamps[i]);
-  for (size_t i = 0; i < layout.clutter.size(); ++i) clutter_xml(bodies, static_cast<int>(i), layout.clutter[i]);
+  for (size_t i = 0; i < layout.clutter.size(); ++i)
+    clutter_xml(bodies, static_cast<int>(i), layout.clutter[i]);
   env.insert(world_end, bodies.str());
 
   const std::string mesh = "<mesh name=\"part_mesh\" file=\"" +

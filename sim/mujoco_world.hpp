@@ -1,5 +1,5 @@
-// The cell as a MuJoCo world: the MJCF composed from the cell (environment + robot + part + clamps + clutter),
-// loaded into an mjModel, with every geom labelled by what it belongs to.
+// The cell as a MuJoCo world: the MJCF composed from the cell (environment + robot + part + clamps +
+// clutter), loaded into an mjModel, with every geom labelled by what it belongs to.
 #pragma once
 
 #include <cstdint>

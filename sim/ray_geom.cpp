@@ -35,7 +35,8 @@ double plane(const Vec3& o, const Vec3& d, const double size[3], double t_min, V
   const double t = -o.z() / d.z();
   if (t < t_min) return -1.0;
   const Vec3 p = o + t * d;
-  if ((size[0] > 0.0 && std::abs(p.x()) > size[0]) || (size[1] > 0.0 && std::abs(p.y()) > size[1])) return -1.0;
+  if ((size[0] > 0.0 && std::abs(p.x()) > size[0]) || (size[1] > 0.0 && std::abs(p.y()) > size[1]))
+    return -1.0;
   if (normal) *normal = Vec3::UnitZ();
   return t;
 }

@@ -18,7 +18,8 @@ std::vector<SeamCoverage> seam_coverage(const PartSpec& part, const Iso3& T_base
     SeamCoverage c;
     c.seam = seam.name;
     const double len = seam.length_m();
-    const int n = std::max(1, static_cast<int>(std::floor((len - 2 * s.end_margin_m) / s.station_step_m)) + 1);
+    const int n =
+        std::max(1, static_cast<int>(std::floor((len - 2 * s.end_margin_m) / s.station_step_m)) + 1);
     std::vector<char> near_seam(pts.size(), 0);
     for (int k = 0; k < n; ++k) {
       const double f = (s.end_margin_m + k * s.station_step_m) / len;

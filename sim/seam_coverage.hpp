@@ -28,6 +28,7 @@ struct CoverageSetting {
 
 /// Coverage of every seam of `part` at pose T_base_part by part points (base frame, exact or noisy).
 std::vector<SeamCoverage> seam_coverage(const PartSpec& part, const Iso3& T_base_part,
-                                        const std::vector<Vec3>& part_points_base, const CoverageSetting& s = {});
+                                        const std::vector<Vec3>& part_points_base,
+                                        const CoverageSetting& s = {});
 
 }  // namespace weldtwin

@@ -46,7 +46,10 @@ JointVector degrees(const YAML::Node& node, const std::string& key, const std::s
 
 SweepProgram::SweepProgram(std::string source, JointVector start, std::vector<SweepMove> moves,
                            double blend_fraction, double joint_log_hz, const RobotModel& robot)
-    : source_(std::move(source)), start_(start), moves_(std::move(moves)), blend_(blend_fraction),
+    : source_(std::move(source)),
+      start_(start),
+      moves_(std::move(moves)),
+      blend_(blend_fraction),
       joint_log_hz_(joint_log_hz) {
   if (moves_.empty()) throw input_error(source_, "sweep has no moves");
   if (!(blend_ > 0.0 && blend_ <= 0.5)) throw input_error(source_, "blend_fraction must be in (0, 0.5]");
@@ -98,7 +101,8 @@ SweepProgram SweepProgram::load(const std::string& yaml_path, const RobotModel& 
       m.duration_s = yaml::number(moves[i], "duration_s", yaml_path);
       out.push_back(m);
     }
-    return SweepProgram(yaml_path, start, std::move(out), yaml::maybe_number(root, "blend_fraction", yaml_path).value_or(0.2),
+    return SweepProgram(yaml_path, start, std::move(out),
+                        yaml::maybe_number(root, "blend_fraction", yaml_path).value_or(0.2),
                         yaml::maybe_number(root, "joint_log_hz", yaml_path).value_or(200.0), robot);
   } catch (const YAML::Exception& e) {
     throw input_error(yaml_path, "malformed sweep program: " + e.msg);
@@ -107,7 +111,8 @@ SweepProgram SweepProgram::load(const std::string& yaml_path, const RobotModel& 
 
 JointSample SweepProgram::at(double t) const {
   t = std::clamp(t, 0.0, duration_s());
-  const size_t i = static_cast<size_t>(std::lower_bound(end_times_.begin(), end_times_.end(), t) - end_times_.begin());
+  const size_t i =
+      static_cast<size_t>(std::lower_bound(end_times_.begin(), end_times_.end(), t) - end_times_.begin());
   const size_t k = std::min(i, moves_.size() - 1);
   const double t0 = k == 0 ? 0.0 : end_times_[k - 1];
   const JointVector& from = k == 0 ? start_ : moves_[k - 1].to;

@@ -1,5 +1,6 @@
 // A sweep program (scenes/sweeps/*.yaml): joint-space waypoints reached one after the other, each move timed
-// as a linear segment with parabolic blends (LSPB), starting and ending at rest. The LiDAR records throughout.
+// as a linear segment with parabolic blends (LSPB), starting and ending at rest. The LiDAR records
+// throughout.
 #pragma once
 
 #include <string>

@@ -55,15 +55,16 @@ void run_turns(const TurnWork& w, std::atomic<size_t>& next, std::atomic<size_t>
       if (slice != current_slice) {
         // The arm's geometry, posed at the start of the slice.
         const JointVector q_slice = w.program.q(static_cast<double>(slice) * w.options.slice_s);
-        for (size_t b = 0; b < body_poses.size(); ++b) body_poses[b] = w.body_chains[b].pose(q_slice, body_caches[b]);
+        for (size_t b = 0; b < body_poses.size(); ++b)
+          body_poses[b] = w.body_chains[b].pose(q_slice, body_caches[b]);
         view.update(body_poses);
         // All of the slice's rays lie in scan planes between those at its start and end.
         if (w.options.cull_by_scan_plane) {
           const double t0 = static_cast<double>(slice) * w.options.slice_s;
           const Iso3 A = w.chain.pose(w.program.q(t0)), B = w.chain.pose(w.program.q(t0 + w.options.slice_s));
           const double tilt = Eigen::AngleAxisd(A.linear().transpose() * B.linear()).angle();
-          view.restrict_to_plane(A.translation(), A.linear().col(2), (B.translation() - A.translation()).norm(),
-                                 1.5 * tilt);
+          view.restrict_to_plane(A.translation(), A.linear().col(2),
+                                 (B.translation() - A.translation()).norm(), 1.5 * tilt);
         }
         current_slice = slice;
       }
@@ -110,8 +111,9 @@ SweepResult simulate_sweep(const MujocoWorld& world, const RobotModel& robot, co
                            const LidarSetting& lidar, const SweepOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
   SweepResult out;
-  const double duration =
-      options.max_duration_s > 0.0 ? std::min(options.max_duration_s, program.duration_s()) : program.duration_s();
+  const double duration = options.max_duration_s > 0.0
+                              ? std::min(options.max_duration_s, program.duration_s())
+                              : program.duration_s();
   const int per_turn = lidar.samples_per_turn();
   const size_t turns = static_cast<size_t>(std::floor(duration * lidar.turn_rate_hz));
 
@@ -145,12 +147,13 @@ SweepResult simulate_sweep(const MujocoWorld& world, const RobotModel& robot, co
   const EmbreeScene scene(world.model(), world.data());
   std::vector<BodyChain> body_chains;
   for (int b : scene.moving_bodies()) body_chains.emplace_back(world.model(), b, world.qpos_adr());
-  const int threads = std::max(1, options.threads > 0 ? options.threads
-                                                      : static_cast<int>(std::thread::hardware_concurrency()));
+  const int threads = std::max(
+      1, options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency()));
   const TurnWork work{world, program, lidar, options, chain, body_chains, scene, out, per_turn};
   std::atomic<size_t> next{0}, done{0};
   std::vector<std::thread> pool;
-  for (int k = 0; k < threads; ++k) pool.emplace_back(run_turns, std::cref(work), std::ref(next), std::ref(done));
+  for (int k = 0; k < threads; ++k)
+    pool.emplace_back(run_turns, std::cref(work), std::ref(next), std::ref(done));
   while (options.progress && done.load() < turns) {
     options.progress(static_cast<double>(done.load()) / static_cast<double>(std::max<size_t>(turns, 1)));
     std::this_thread::sleep_for(std::chrono::milliseconds(200));

@@ -14,7 +14,9 @@
 
 namespace weldtwin::test {
 
-inline std::string repo(const std::string& relative) { return std::string(WELDTWIN_SOURCE_DIR) + "/" + relative; }
+inline std::string repo(const std::string& relative) {
+  return std::string(WELDTWIN_SOURCE_DIR) + "/" + relative;
+}
 
 /// Everything a sim test needs about one cell.
 struct Cell {

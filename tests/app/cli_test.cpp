@@ -1,11 +1,11 @@
 // The command line as a user meets it: --help, and bad input ending in one clear line and exit code 2.
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
 #include <array>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <sys/wait.h>
 
 #include "tests/test_support.hpp"
 
@@ -35,10 +35,10 @@ std::string temp_file(const std::string& name, const std::string& text) {
 }
 
 std::string cell_with(const std::string& extra_part, const std::string& robot = "") {
-  return "environment: " + test::repo("scenes/cells/default.xml") + "\nrobot: " +
-         (robot.empty() ? test::repo("scenes/robots/aubo_i5.urdf") : robot) + "\nsweep: " +
-         test::repo("scenes/sweeps/default.yaml") + "\npart:\n  spec: " + test::repo("scenes/parts/tube_on_plate.yaml") +
-         "\n" + extra_part;
+  return "environment: " + test::repo("scenes/cells/default.xml") +
+         "\nrobot: " + (robot.empty() ? test::repo("scenes/robots/aubo_i5.urdf") : robot) +
+         "\nsweep: " + test::repo("scenes/sweeps/default.yaml") +
+         "\npart:\n  spec: " + test::repo("scenes/parts/tube_on_plate.yaml") + "\n" + extra_part;
 }
 
 void expect_bad_input(const CliRun& r, const std::string& must_mention) {
@@ -72,15 +72,16 @@ TEST(Cli, BadInputGivesOneLineAndExitCode2) {
   std::string nomesh = cell_with("  x_m: 0.44\n  y_m: 0.0\n");
   nomesh.replace(nomesh.find(test::repo("scenes/parts/tube_on_plate.yaml")),
                  test::repo("scenes/parts/tube_on_plate.yaml").size(), part);
-  expect_bad_input(weldtwin("scan " + temp_file("nomesh.yaml", nomesh) + " --out " + out), "missing_mesh.stl");
+  expect_bad_input(weldtwin("scan " + temp_file("nomesh.yaml", nomesh) + " --out " + out),
+                   "missing_mesh.stl");
 }
 
 TEST(Cli, ScanWritesLogCloudAndTruth) {
   const auto dir = std::filesystem::temp_directory_path() / "weldtwin_cli_scan";
   std::filesystem::create_directories(dir);
   const CliRun r = weldtwin("scan " + test::repo("scenes/cells/tube_tee.yaml") + " --seed 5 --out " +
-                         (dir / "s.scanlog").string() + " --cloud " + (dir / "s.pcd").string() + " --truth " +
-                         (dir / "t.json").string());
+                            (dir / "s.scanlog").string() + " --cloud " + (dir / "s.pcd").string() +
+                            " --truth " + (dir / "t.json").string());
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.err.find("sweeping"), std::string::npos);  // progress lines
   EXPECT_GT(std::filesystem::file_size(dir / "s.scanlog"), 1000000u);

@@ -19,7 +19,8 @@ TEST(RobotModel, FlangeAtZeroMatchesThePublishedCheckValue) {
 TEST(RobotModel, HasTheArmTheToolAndTheSensor) {
   const RobotModel robot = RobotModel::load(test::repo("scenes/robots/aubo_i5.urdf"));
   EXPECT_EQ(robot.dof(), 6);
-  for (const char* link : {"base_link", "wrist2_Link", "flange", "tcp", "lidar"}) EXPECT_GE(robot.link_index(link), 0) << link;
+  for (const char* link : {"base_link", "wrist2_Link", "flange", "tcp", "lidar"})
+    EXPECT_GE(robot.link_index(link), 0) << link;
   // The LiDAR rides on link 5 (wrist2): J6 must not move it, J5 must.
   JointVector q = JointVector::Constant(0.3);
   const int lidar = robot.require_link("lidar");

@@ -20,13 +20,16 @@ ScanLog random_log(uint64_t seed) {
     log.turns.push_back({t * 0.1, t * 7, 7});
     for (int k = 0; k < 7; ++k)
       log.samples.push_back({t * 0.1 + k * 1e-3, static_cast<float>(u(rng) * 6.28),
-                             k == 3 ? 0.0f : static_cast<float>(u(rng) * 5), static_cast<uint8_t>(k == 3 ? 0 : 200)});
+                             k == 3 ? 0.0f : static_cast<float>(u(rng) * 5),
+                             static_cast<uint8_t>(k == 3 ? 0 : 200)});
   }
   for (int k = 0; k < 11; ++k) log.joints.push_back({k * 0.05, JointVector::Random()});
   return log;
 }
 
-std::string temp(const std::string& name) { return (std::filesystem::temp_directory_path() / name).string(); }
+std::string temp(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / name).string();
+}
 
 TEST(ScanLog, RoundTripIsExact) {
   const ScanLog a = random_log(3);

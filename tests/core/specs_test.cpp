@@ -61,13 +61,16 @@ TEST(PartSpec, BadSpecsAreRejected) {
   const std::string stl = test::repo("scenes/parts/tube_on_plate.stl");
   const std::string head = "name: p\nmodel: " + stl + "\nheight_m: 0.1\nfootprint_m: [[0,0],[1,0],[0,1]]\n";
   const std::string seam = "seams:\n  - name: s\n    start: [0, 0, 0]\n";
-  const std::string tail = "    normal: [0, 0, 1]\n    wall_normal: [0, -1, 0]\n    work_angle_deg: 45\n"
-                           "    travel_angle_deg: 0\n    torch_roll_deg: free\n    speed_mm_s: 8\n";
-  EXPECT_NE(error_of([&] { PartSpec::load(write_temp("zero.yaml", head + seam + "    end: [0, 0, 0]\n" + tail)); })
-                .find("zero-length"),
+  const std::string tail =
+      "    normal: [0, 0, 1]\n    wall_normal: [0, -1, 0]\n    work_angle_deg: 45\n"
+      "    travel_angle_deg: 0\n    torch_roll_deg: free\n    speed_mm_s: 8\n";
+  EXPECT_NE(error_of([&] {
+              PartSpec::load(write_temp("zero.yaml", head + seam + "    end: [0, 0, 0]\n" + tail));
+            }).find("zero-length"),
             std::string::npos);
   const std::string parallel = head + seam + "    end: [0, 0, 0.05]\n" + tail;  // travel along n
-  EXPECT_NE(error_of([&] { PartSpec::load(write_temp("parallel.yaml", parallel)); }).find("parallel"), std::string::npos);
+  EXPECT_NE(error_of([&] { PartSpec::load(write_temp("parallel.yaml", parallel)); }).find("parallel"),
+            std::string::npos);
   EXPECT_NE(error_of([&] { PartSpec::load(write_temp("bad.yaml", "name: [unclosed\n")); }).find("bad.yaml"),
             std::string::npos);
   EXPECT_NE(error_of([&] { PartSpec::load(write_temp("empty.yaml", "")); }).find("empty"), std::string::npos);
@@ -86,15 +89,19 @@ TEST(CellSpec, DefaultCellLoadsAndBadOnesAreRejected) {
   EXPECT_NEAR(cell.table.x_max_m - cell.table.x_min_m, 0.8, 1e-12);
   EXPECT_NEAR(cell.table.y_max_m - cell.table.y_min_m, 1.2, 1e-12);
   const std::string dir = test::repo("scenes/cells/");
-  EXPECT_NE(error_of([&] { CellSpec::load(write_temp("c1.yaml", "name: x\nenvironment: " + dir + "nope.xml\n")); })
-                .find("nope.xml"),
-            std::string::npos);
-  const std::string ok_head = "environment: " + dir + "default.xml\nrobot: " + test::repo("scenes/robots/aubo_i5.urdf") +
-                              "\nsweep: " + test::repo("scenes/sweeps/default.yaml") + "\n";
-  EXPECT_NE(error_of([&] { CellSpec::load(write_temp("c2.yaml", ok_head)); }).find("part"), std::string::npos);
   EXPECT_NE(error_of([&] {
-              CellSpec::load(write_temp("c3.yaml", ok_head + "part: {spec: " + test::repo("scenes/parts/tube_tee.yaml") +
-                                                       ", x_m: 0.4}\n"));
+              CellSpec::load(write_temp("c1.yaml", "name: x\nenvironment: " + dir + "nope.xml\n"));
+            }).find("nope.xml"),
+            std::string::npos);
+  const std::string ok_head = "environment: " + dir +
+                              "default.xml\nrobot: " + test::repo("scenes/robots/aubo_i5.urdf") +
+                              "\nsweep: " + test::repo("scenes/sweeps/default.yaml") + "\n";
+  EXPECT_NE(error_of([&] { CellSpec::load(write_temp("c2.yaml", ok_head)); }).find("part"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] {
+              CellSpec::load(write_temp(
+                  "c3.yaml",
+                  ok_head + "part: {spec: " + test::repo("scenes/parts/tube_tee.yaml") + ", x_m: 0.4}\n"));
             }).find("both x and y"),
             std::string::npos);
 }

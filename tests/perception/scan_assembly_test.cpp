@@ -36,14 +36,15 @@ TEST(ScanAssembly, JointsLoggedAtEverySampleGiveTheSimCloudWithin1nm) {
   double worst = 0.0;
   for (size_t i = 0; i < a.by_fk.points_base.size(); ++i)
     worst = std::max(worst, (a.by_fk.points_base[i] - a.by_sim.points_base[i]).norm());
-  std::printf("joints at every sample: worst difference %.2e m over %zu points\n", worst, a.by_fk.points_base.size());
+  std::printf("joints at every sample: worst difference %.2e m over %zu points\n", worst,
+              a.by_fk.points_base.size());
   EXPECT_LT(worst, 1e-9);
 }
 
 TEST(ScanAssembly, JointsLoggedAt200HzStayWithinTheInterpolationBound) {
-  // Linear interpolation of a joint with |qdd| <= A between states dt apart errs by at most A dt^2 / 8; a joint
-  // error dq moves a point at distance rho from that joint's axis by at most rho |dq|. The bound per point is
-  // A dt^2 / 8 * sum_j |p - o_j|, o_j a point on joint j's axis.
+  // Linear interpolation of a joint with |qdd| <= A between states dt apart errs by at most A dt^2 / 8; a
+  // joint error dq moves a point at distance rho from that joint's axis by at most rho |dq|. The bound per
+  // point is A dt^2 / 8 * sum_j |p - o_j|, o_j a point on joint j's axis.
   test::Cell cell;
   const SweepProgram program = SweepProgram::load(cell.spec.sweep_program, cell.robot);
   const double hz = 200.0, dt = 1.0 / hz;
@@ -64,8 +65,8 @@ TEST(ScanAssembly, JointsLoggedAt200HzStayWithinTheInterpolationBound) {
     worst = std::max(worst, err);
     worst_ratio = std::max(worst_ratio, err / bound);
   }
-  std::printf("joints at %.0f Hz: worst difference %.2e m, %.0f %% of its bound (joint bound %.1e rad)\n", hz, worst,
-              100 * worst_ratio, dq);
+  std::printf("joints at %.0f Hz: worst difference %.2e m, %.0f %% of its bound (joint bound %.1e rad)\n", hz,
+              worst, 100 * worst_ratio, dq);
   EXPECT_GT(worst, 1e-9);  // the effect is real, not zero by accident
 }
 

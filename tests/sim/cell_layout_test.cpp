@@ -11,7 +11,8 @@
 namespace weldtwin {
 namespace {
 
-const char* kCells[] = {"scenes/cells/default.yaml", "scenes/cells/round_on_plate.yaml", "scenes/cells/tube_tee.yaml"};
+const char* kCells[] = {"scenes/cells/default.yaml", "scenes/cells/round_on_plate.yaml",
+                        "scenes/cells/tube_tee.yaml"};
 
 TEST(CellLayout, SeededDrawsAreValidVariedAndReproducible) {
   for (const char* file : kCells) {
@@ -75,7 +76,8 @@ TEST(CellLayout, ImpossibleLayoutsAreRefused) {
     return std::string();
   };
   EXPECT_EQ(why({0.44, 0.06, 0.0, 0.4}), "");
-  EXPECT_NE(why({0.2, 0.54, 0.0, 0.0}).find("off the table"), std::string::npos);  // within reach, over the edge
+  EXPECT_NE(why({0.2, 0.54, 0.0, 0.0}).find("off the table"),
+            std::string::npos);  // within reach, over the edge
   EXPECT_NE(why({0.95, 0.0, 0.0, 0.0}).find("out of reach"), std::string::npos);
   EXPECT_NE(why({0.62, 0.0, 0.0, 0.0}).find("out of reach"), std::string::npos);  // seams beyond the reach
   EXPECT_NE(why({0.44, 0.06, -0.002, 0.0}).find("intersects the table"), std::string::npos);

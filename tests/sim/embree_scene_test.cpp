@@ -25,7 +25,8 @@ TEST(EmbreeScene, AgreesWithMjRayOn10000RandomRays) {
   for (int k = 0; k < 10000; ++k) {
     const Vec3 o(ux(rng), uy(rng), uz(rng));
     Vec3 d;
-    do d = Vec3(un(rng), un(rng), un(rng)); while (d.norm() < 0.1 || d.norm() > 1.0);
+    do d = Vec3(un(rng), un(rng), un(rng));
+    while (d.norm() < 0.1 || d.norm() > 1.0);
     d.normalize();
     int geom = -1;
     const double t_mj = mj_ray(m, w.data(), o.data(), d.data(), nullptr, 1, -1, &geom);
@@ -47,8 +48,9 @@ TEST(EmbreeScene, AgreesWithMjRayOn10000RandomRays) {
     EXPECT_NEAR(hit.normal.norm(), 1.0, 1e-9);
     EXPECT_LE(hit.normal.dot(d), 1e-12);
   }
-  std::printf("rays hitting: %d, same geom: %d, touching-surface ties: %d, on curved geoms: %d, worst |dt| %.2e m\n",
-              hits, same, ties, curved, worst);
+  std::printf(
+      "rays hitting: %d, same geom: %d, touching-surface ties: %d, on curved geoms: %d, worst |dt| %.2e m\n",
+      hits, same, ties, curved, worst);
   EXPECT_GT(hits, 3000);  // a third of random directions point at something
   EXPECT_GT(curved, 20);
   EXPECT_LE(ties, hits / 1000);

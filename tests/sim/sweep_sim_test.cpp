@@ -102,13 +102,20 @@ TEST(SweepSim, NoiseFreePointsLieOnTheirLabelledGeoms) {
     const mjtNum* s = m->geom_size + 3 * g;
     double dist = 1e9;
     switch (m->geom_type[g]) {
-      case mjGEOM_BOX: dist = box_surface(local, Vec3(s[0], s[1], s[2])); break;
-      case mjGEOM_CYLINDER: dist = cylinder_surface(local, s[0], s[1]); break;
-      case mjGEOM_PLANE: dist = std::abs(local.z()); break;
+      case mjGEOM_BOX:
+        dist = box_surface(local, Vec3(s[0], s[1], s[2]));
+        break;
+      case mjGEOM_CYLINDER:
+        dist = cylinder_surface(local, s[0], s[1]);
+        break;
+      case mjGEOM_PLANE:
+        dist = std::abs(local.z());
+        break;
       case mjGEOM_MESH:
         for (const auto& t : part) dist = std::min(dist, triangle_distance(p, t[0], t[1], t[2]));
         break;
-      default: FAIL() << "unexpected geom type " << m->geom_type[g];
+      default:
+        FAIL() << "unexpected geom type " << m->geom_type[g];
     }
     const size_t label = static_cast<size_t>(r.labels[i]);
     ASSERT_EQ(r.labels[i], w.geom_label(g));
@@ -116,10 +123,11 @@ TEST(SweepSim, NoiseFreePointsLieOnTheirLabelledGeoms) {
     ++counted[label];
     ++counted[0];
   }
-  std::printf("points checked: part %zu (worst %.1e m), table %zu (%.1e), clamp %zu (%.1e), robot %zu (%.1e), "
-              "other %zu (%.1e)\n",
-              counted[1], worst[1], counted[2], worst[2], counted[3], worst[3], counted[4], worst[4], counted[5],
-              worst[5]);
+  std::printf(
+      "points checked: part %zu (worst %.1e m), table %zu (%.1e), clamp %zu (%.1e), robot %zu (%.1e), "
+      "other %zu (%.1e)\n",
+      counted[1], worst[1], counted[2], worst[2], counted[3], worst[3], counted[4], worst[4], counted[5],
+      worst[5]);
   for (int l = 1; l < 6; ++l) {
     EXPECT_GT(counted[l], 100u) << label_name(static_cast<Label>(l));
     EXPECT_LT(worst[l], 1e-6) << label_name(static_cast<Label>(l));
@@ -127,8 +135,8 @@ TEST(SweepSim, NoiseFreePointsLieOnTheirLabelledGeoms) {
 }
 
 TEST(SweepSim, EveryPartGetsEnoughPointsAndItsSeamsAreSeen) {
-  for (const char* file : {"scenes/cells/default.yaml", "scenes/cells/round_on_plate.yaml",
-                           "scenes/cells/tube_tee.yaml"}) {
+  for (const char* file :
+       {"scenes/cells/default.yaml", "scenes/cells/round_on_plate.yaml", "scenes/cells/tube_tee.yaml"}) {
     test::Cell cell(file);
     const SweepProgram program = SweepProgram::load(cell.spec.sweep_program, cell.robot);
     const SweepResult r = simulate_sweep(*cell.world, cell.robot, program, LidarSetting().noise_free());
@@ -139,13 +147,15 @@ TEST(SweepSim, EveryPartGetsEnoughPointsAndItsSeamsAreSeen) {
       const LidarSample& s = r.log.samples[i];
       JointVector q = program.q(s.t_s);
       const Iso3 T = cell.robot.forward_kinematics(q, cell.robot.require_link("lidar"));
-      part_points.push_back(T * Vec3(s.range_m * std::cos(s.angle_rad), s.range_m * std::sin(s.angle_rad), 0.0));
+      part_points.push_back(T *
+                            Vec3(s.range_m * std::cos(s.angle_rad), s.range_m * std::sin(s.angle_rad), 0.0));
     }
     std::printf("%s: %zu part points;", cell.part.name.c_str(), part_points.size());
     EXPECT_GT(part_points.size(), 2000u) << file;
     for (const SeamCoverage& c : seam_coverage(cell.part, cell.layout.T_base_part, part_points)) {
       // Seen from the open side: points on the joint's members within 8 mm of nearly every seam station.
-      std::printf(" %s %.0f %% (both members %.0f %%)", c.seam.c_str(), 100 * c.fraction_one(), 100 * c.fraction());
+      std::printf(" %s %.0f %% (both members %.0f %%)", c.seam.c_str(), 100 * c.fraction_one(),
+                  100 * c.fraction());
       EXPECT_GE(c.fraction_one(), 0.7) << file << " seam " << c.seam;
     }
     std::printf("\n");
@@ -191,7 +201,8 @@ TEST(SweepSim, RangeNoiseHasTheStatedSigmaAndSeedsReproduce) {
     ++n;
   }
   ASSERT_GT(n, 10000u);
-  const double mean = sum / static_cast<double>(n), sd = std::sqrt(sum2 / static_cast<double>(n) - mean * mean);
+  const double mean = sum / static_cast<double>(n),
+               sd = std::sqrt(sum2 / static_cast<double>(n) - mean * mean);
   EXPECT_NEAR(mean, 0.0, 0.03);
   EXPECT_NEAR(sd, 1.0, 0.03);
 
