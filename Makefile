@@ -4,7 +4,7 @@ JOBS  ?= $(shell nproc)
 OUT   ?= out
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: setup configure build run test bench format clean
+.PHONY: setup configure build run test bench coverage format clean
 
 setup:
 	@bash scripts/setup
@@ -27,6 +27,11 @@ test: build
 
 bench: build
 	$(BUILD)/benchmarks/weldtwin_bench --benchmark_min_time=0.5
+
+# What the default sweep sees of each part at 50 random layouts (a few minutes).
+coverage: build
+	$(BUILD)/benchmarks/sweep_coverage --layouts 50 scenes/cells/default.yaml scenes/cells/round_on_plate.yaml \
+	  scenes/cells/tube_tee.yaml
 
 format:
 	@git ls-files '*.cpp' '*.hpp' | xargs clang-format -i

@@ -181,8 +181,7 @@ def tube_tee():
     # Clamps hold the ends, away from the joint, where they would hide the inside corners from the scanner.
     sites = [((0.12, 0, 2 * main_half), (0, -d)), ((-0.12, 0, 2 * main_half), (0, -d)),
              ((0.135, 0, 2 * main_half), (d, 0)), ((-0.135, 0, 2 * main_half), (-d, 0)),
-             ((0, main_half + br_len - 0.015, 2 * br_half), (d, 0)),
-             ((0, main_half + br_len - 0.015, 2 * br_half), (-d, 0))]
+             ((0, main_half + br_len - 0.015, 2 * br_half), (0, d))]
     write_stl(os.path.join(OUT, "tube_tee.stl"), tris, "weldtwin tube_tee")
     write_spec("tube_tee", seams, sites, fp, 2 * main_half,
                "2 in square tube (300 mm) with a 1.5 in square branch (150 mm) butted to its side, lying on the "

@@ -184,6 +184,8 @@ CellLayout make_layout(const CellSpec& cell, const PartSpec& part, std::optional
   std::uniform_real_distribution<double> u01(0.0, 1.0);
   layout.seed = seed;
   const PlacementSpec& pl = cell.placement;
+  std::vector<int> sites(part.clamp_sites.size());
+  const int min_clamps = std::min<int>(2, static_cast<int>(sites.size()));
   bool placed = false;
   for (int attempt = 0; attempt < 20000 && !placed; ++attempt) {
     // Uniform over the ring sector by area.
@@ -193,19 +195,20 @@ CellLayout make_layout(const CellSpec& cell, const PartSpec& part, std::optional
     const double bearing = (2.0 * u01(rng) - 1.0) * pl.max_bearing_rad;
     const double yaw = 2.0 * kPi * u01(rng);
     layout.T_base_part = planar_pose(r * std::cos(bearing), r * std::sin(bearing), cell.table.top_z_m, yaw);
-    placed = part_problem(cell, part, layout.T_base_part).empty();
+    if (!part_problem(cell, part, layout.T_base_part).empty()) continue;
+    // 2-4 clamps on sites that fit (on the table, clear of each other and the robot); else another pose.
+    for (size_t i = 0; i < sites.size(); ++i) sites[i] = static_cast<int>(i);
+    std::shuffle(sites.begin(), sites.end(), rng);
+    const int wanted = std::min<int>(2 + static_cast<int>(rng() % 3), static_cast<int>(sites.size()));
+    layout.clamps.clear();
+    for (int site : sites) {
+      if (static_cast<int>(layout.clamps.size()) == wanted) break;
+      layout.clamps.push_back(place_clamp(part, layout.T_base_part, site));
+      if (!layout_problem(cell, part, layout).empty()) layout.clamps.pop_back();
+    }
+    placed = static_cast<int>(layout.clamps.size()) >= min_clamps;
   }
   if (!placed) throw input_error(cell.source, "no pose of part '" + part.name + "' fits the placement area");
-
-  std::vector<int> sites(part.clamp_sites.size());
-  for (size_t i = 0; i < sites.size(); ++i) sites[i] = static_cast<int>(i);
-  std::shuffle(sites.begin(), sites.end(), rng);
-  const int wanted = std::min<int>(2 + static_cast<int>(rng() % 3), static_cast<int>(sites.size()));
-  for (int site : sites) {
-    if (static_cast<int>(layout.clamps.size()) == wanted) break;
-    layout.clamps.push_back(place_clamp(part, layout.T_base_part, site));
-    if (!layout_problem(cell, part, layout).empty()) layout.clamps.pop_back();
-  }
 
   const int clutter_wanted = static_cast<int>(rng() % 4);
   for (int attempt = 0; attempt < 400 && static_cast<int>(layout.clutter.size()) < clutter_wanted;

@@ -1,5 +1,6 @@
 #include "sim/embree_scene.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -293,7 +294,8 @@ EmbreeScene::View::View(const EmbreeScene& scene)
       T_world_body_(scene.moving_.size(), Iso3::Identity()),
       T_body_world_(scene.moving_.size(), Iso3::Identity()),
       centre_world_(scene.moving_.size(), Vec3::Zero()),
-      active_(scene.moving_.size()) {
+      active_(scene.moving_.size()),
+      body_active_(scene.moving_.size(), 1) {
   for (size_t i = 0; i < scene.moving_.size(); ++i) active_[i].assign(scene.moving_[i].shapes.size(), 1);
 }
 
@@ -316,6 +318,7 @@ void EmbreeScene::View::update(const std::vector<Iso3>& T_world_body) {
     T_body_world_[i] = T_world_body[i].inverse();
     centre_world_[i] = T_world_body[i] * scene_.moving_[i].centre;
     active_[i].assign(scene_.moving_[i].shapes.size(), 1);
+    body_active_[i] = 1;
   }
 }
 
@@ -350,6 +353,7 @@ void EmbreeScene::View::restrict_to_plane(const Vec3& origin, const Vec3& normal
       const double reach = c.norm() + s.bound_radius;
       active_[i][k] = std::abs(c.dot(n)) <= extent + slack_m + slack_rad * reach + 1e-9;
     }
+    body_active_[i] = std::find(active_[i].begin(), active_[i].end(), 1) != active_[i].end();
   }
 }
 
@@ -392,6 +396,7 @@ RayHit EmbreeScene::View::cast(const Vec3& origin, const Vec3& dir, double t_min
   }
   // The moving bodies, exactly, behind their bounding spheres.
   for (size_t i = 0; i < scene_.moving_.size(); ++i) {
+    if (!body_active_[i]) continue;
     const MovingBody& b = scene_.moving_[i];
     const Vec3 oc = centre_world_[i] - origin;
     const double tca = oc.dot(dir), d2 = oc.squaredNorm() - tca * tca, r2 = b.radius * b.radius;

@@ -53,6 +53,7 @@ class EmbreeScene {
     std::vector<Iso3> T_world_body_, T_body_world_;
     std::vector<Vec3> centre_world_;
     std::vector<std::vector<char>> active_;  ///< per moving body and shape: may a ray meet it
+    std::vector<char> body_active_;          ///< per moving body: may a ray meet any of its shapes
   };
 
   View make_view() const { return View(*this); }
