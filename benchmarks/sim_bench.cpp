@@ -126,5 +126,3 @@ BENCHMARK(BM_LidarPose)->Arg(0)->Arg(1);
 
 }  // namespace
 }  // namespace weldtwin
-
-BENCHMARK_MAIN();
