@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <exception>
 
+#include "app/plan_command.hpp"
 #include "app/scan_command.hpp"
 #include "core/error.hpp"
 
@@ -32,6 +33,20 @@ int main(int argc, char** argv) {
   sc->add_option("--threads", scan.threads, "ray-casting threads (default: all cores)");
   sc->add_flag("-q,--quiet", scan.quiet, "no progress lines");
 
+  weldtwin::PlanCommand plan;
+  CLI::App* pc =
+      app.add_subcommand("plan", "Plan the welds of a part at a pose: timed torch path and 200 Hz joints");
+  pc->add_option("--part", plan.part, "part spec (scenes/parts/*.yaml)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  pc->add_option("--pose", plan.pose, "pose JSON with T_base_part (as weldtwin localize writes it)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  pc->add_option("--cell", plan.cell, "cell file for the robot (default: scenes/cells/default.yaml)");
+  pc->add_option("--out", plan.out, "plan JSON to write")->required();
+  pc->add_option("--csv", plan.csv, "joint trajectory CSV to write (t,j1..j6)");
+  pc->add_flag("-q,--quiet", plan.quiet, "no progress lines");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -45,6 +60,7 @@ int main(int argc, char** argv) {
       if (*seed_opt) scan.seed = seed;
       return weldtwin::run_scan(scan);
     }
+    if (pc->parsed()) return weldtwin::run_plan(plan);
   } catch (const weldtwin::InputError& e) {
     std::fprintf(stderr, "weldtwin: %s\n", e.what());
     return 2;

@@ -20,8 +20,8 @@ struct TableSpec {
 
 /// Where parts may go: their seams within a ring around the robot base, in front of it.
 struct PlacementSpec {
-  double min_radius_m = 0.28;              ///< closest seam point to the base axis
-  double max_radius_m = 0.62;              ///< farthest seam point from the base axis
+  double min_radius_m = 0.40;              ///< closest seam point to the base axis
+  double max_radius_m = 0.56;              ///< farthest seam point from the base axis
   double max_bearing_rad = deg2rad(75.0);  ///< |atan2(y, x)| of the part origin
   double base_keepout_m = 0.16;            ///< no part or clamp within this radius of the base axis
 };

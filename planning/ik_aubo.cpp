@@ -33,11 +33,13 @@ bool angle_between(const Vec3& w, const Vec3& u, const Vec3& v, double& q) {
 
 // Solves a cos q + b sin q = c for both q; false if |c| exceeds sqrt(a^2 + b^2) beyond rounding.
 // Near the boundary (a double root) both answers collapse to one.
-bool cos_sin_equation(double a, double b, double c, double q[2], bool* near_double_root = nullptr) {
+bool cos_sin_equation(double a, double b, double c, double q[2], bool* near_double_root = nullptr,
+                      double* sine = nullptr) {
   const double n = std::hypot(a, b);
   if (n < 1e-15) return false;
   double k = c / n;
   if (near_double_root) *near_double_root = 1.0 - std::abs(k) < kNearSingular;
+  if (sine) *sine = std::sqrt(std::max(0.0, 1.0 - k * k));
   if (std::abs(k) > 1.0 + 1e-9) return false;
   k = std::clamp(k, -1.0, 1.0);
   const double phi = std::atan2(b, a), d = std::acos(k);
@@ -118,10 +120,11 @@ std::array<IkSolution, 8> AuboIk::solve(const Iso3& T_base_tip, double q6_refere
 
   // J1: rotations about J2-J4 keep every point's coordinate along wp, so
   // (Rot(w1, q1) wp) . (W - r1) = wp . (W0 - r1).
-  double k0, kc, ks, q1s[2];
+  double k0, kc, ks, q1s[2], shoulder_sine = 0.0, wrist_sine = 0.0;
   bool shoulder_singular = false, wrist_singular = false;
   rotated_dot(w_[0], wp_, W - r_[0], k0, kc, ks);
-  if (!cos_sin_equation(kc, ks, wp_.dot(W0_ - r_[0]) - k0, q1s, &shoulder_singular)) return out;
+  if (!cos_sin_equation(kc, ks, wp_.dot(W0_ - r_[0]) - k0, q1s, &shoulder_singular, &shoulder_sine))
+    return out;
 
   const Vec3 w6_now = R * M_.linear().transpose() * w_[5];  // J6 axis at the target
   for (int i1 = 0; i1 < 2; ++i1) {
@@ -129,7 +132,8 @@ std::array<IkSolution, 8> AuboIk::solve(const Iso3& T_base_tip, double q6_refere
     const Mat3 R1 = rot(w_[0], q1);
     // J5: (Rot(w5, q5) w6) . wp = (R1 wp) . w6_now.
     double q5s[2];
-    if (!cos_sin_equation(q5_cos_, q5_sin_, (R1 * wp_).dot(w6_now) - q5_const_, q5s, &wrist_singular))
+    if (!cos_sin_equation(q5_cos_, q5_sin_, (R1 * wp_).dot(w6_now) - q5_const_, q5s, &wrist_singular,
+                          &wrist_sine))
       continue;
     const Mat3 N = R1.transpose() * R * M_.linear().transpose();  // = R234 R5 R6
     for (int i5 = 0; i5 < 2; ++i5) {
@@ -165,6 +169,9 @@ std::array<IkSolution, 8> AuboIk::solve(const Iso3& T_base_tip, double q6_refere
         sol.valid = true;
         sol.within_limits = ((sol.q - lower_).array() >= 0).all() && ((upper_ - sol.q).array() >= 0).all();
         sol.branch = 4 * i1 + 2 * i5 + i3;
+        sol.shoulder_margin = shoulder_sine;
+        sol.wrist_margin = wrist_sine;
+        sol.elbow_margin = std::sqrt(std::max(0.0, 1.0 - kappa * kappa));
       }
     }
   }

@@ -17,6 +17,10 @@ struct IkSolution {
   bool valid = false;                   ///< this branch reaches the pose
   bool within_limits = false;           ///< and every joint is inside its limits
   int branch = 0;                       ///< 4 * shoulder + 2 * wrist + elbow
+  /// Distance from the three singularities, each the sine of the angle between the two branches it
+  /// separates (0 at the singularity, 1 farthest): shoulder (wrist centre on the J1 axis's offset cylinder),
+  /// elbow (arm straight), wrist (J6 axis parallel to J2-J4).
+  double shoulder_margin = 0.0, elbow_margin = 0.0, wrist_margin = 0.0;
 };
 
 class AuboIk {

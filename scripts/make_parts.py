@@ -104,7 +104,7 @@ def write_spec(name, seams, clamp_sites, footprint, height, notes):
         wn = s["wall_normal"]
         lines.append("    wall_normal: %s" % (wn if isinstance(wn, str) else fmt(wn)))
         lines.append("    work_angle_deg: 45")
-        lines.append("    travel_angle_deg: 10")
+        lines.append("    travel_angle_deg: %g" % s.get("travel_deg", 10))
         lines.append("    torch_roll_deg: free")
         lines.append("    speed_mm_s: 8")
     with open(os.path.join(OUT, name + ".yaml"), "w") as f:
@@ -170,9 +170,11 @@ def tube_tee():
     y, top = main_half, 2 * br_half
     seams = [
         dict(name="top", start=(-br_half, y, top), end=(br_half, y, top), normal=(0, 1, 0), wall_normal=(0, 0, 1)),
-        dict(name="right", start=(br_half, y, 0.004), end=(br_half, y, top), normal=(0, 1, 0), wall_normal=(1, 0, 0)),
-        dict(name="left", start=(-br_half, y, top), end=(-br_half, y, 0.004), normal=(0, 1, 0),
-             wall_normal=(-1, 0, 0)),
+        # The vertical seams are welded downwards, the torch pushing at 40 deg so that it clears the table.
+        dict(name="right", start=(br_half, y, top), end=(br_half, y, 0.008), normal=(0, 1, 0), wall_normal=(1, 0, 0),
+             travel_deg=40),
+        dict(name="left", start=(-br_half, y, top), end=(-br_half, y, 0.008), normal=(0, 1, 0),
+             wall_normal=(-1, 0, 0), travel_deg=40),
     ]
     fp = [(-main_len / 2, -main_half), (main_len / 2, -main_half), (main_len / 2, main_half), (br_half, main_half),
           (br_half, main_half + br_len), (-br_half, main_half + br_len), (-br_half, main_half),

@@ -76,6 +76,59 @@ TEST(Cli, BadInputGivesOneLineAndExitCode2) {
                    "missing_mesh.stl");
 }
 
+TEST(Cli, PlanRefusesBadInputAndUnreachableSeams) {
+  const std::string out = (std::filesystem::temp_directory_path() / "weldtwin_cli_plan.json").string();
+  const std::string part = test::repo("scenes/parts/tube_on_plate.yaml");
+  auto pose = [](double x, double y) {
+    return "{\"T_base_part\": [[1,0,0," + std::to_string(x) + "],[0,1,0," + std::to_string(y) +
+           "],[0,0,1,0],[0,0,0,1]]}";
+  };
+  // A good pose plans (exit 0) and writes the plan.
+  const CliRun good = weldtwin("plan --part " + part + " --pose " + temp_file("good.json", pose(0.46, 0.0)) +
+                               " --out " + out + " --csv " + out + ".csv -q");
+  EXPECT_EQ(good.code, 0) << good.err;
+  EXPECT_GT(std::filesystem::file_size(out + ".csv"), 10000u);
+  // Out of reach: the job ran, the answer is "cannot weld": exit 3, the seam named, the plan says why.
+  const CliRun far = weldtwin("plan --part " + part + " --pose " + temp_file("far.json", pose(0.95, 0.0)) +
+                              " --out " + out + " -q");
+  EXPECT_EQ(far.code, 3) << far.err;
+  EXPECT_NE(far.err.find("seam 'front'"), std::string::npos) << far.err;
+  std::ifstream in(out);
+  const std::string plan((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(plan.find("\"ok\":false"), std::string::npos);
+  EXPECT_NE(plan.find("unreachable"), std::string::npos);
+  // Bad input: exit 2, one line naming the file.
+  expect_bad_input(weldtwin("plan --part " + part + " --pose " +
+                            temp_file("broken.json", "{\"T_base_part\": [[1,0") + " --out " + out),
+                   "broken.json");
+  expect_bad_input(
+      weldtwin("plan --part " + part + " --pose " +
+               temp_file("skew.json", "{\"T_base_part\": [[2,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}") +
+               " --out " + out),
+      "rigid");
+  const std::string stl = test::repo("scenes/parts/tube_on_plate.stl");
+  const std::string head =
+      "name: p\nmodel: " + stl + "\nheight_m: 0.1\nfootprint_m: [[0,0],[1,0],[0,1]]\nseams:\n";
+  const std::string tail =
+      "    normal: [0, 0, 1]\n    wall_normal: [0, -1, 0]\n    work_angle_deg: 45\n"
+      "    travel_angle_deg: 10\n    torch_roll_deg: free\n    speed_mm_s: 8\n";
+  const std::string good_pose = temp_file("good2.json", pose(0.46, 0.0));
+  expect_bad_input(weldtwin("plan --part " +
+                            temp_file("zero_seam.yaml",
+                                      head + "  - name: z\n    start: [0,0,0]\n    end: [0,0,0]\n" + tail) +
+                            " --pose " + good_pose + " --out " + out),
+                   "zero-length");
+  expect_bad_input(
+      weldtwin("plan --part " +
+               temp_file("parallel_seam.yaml",
+                         head + "  - name: up\n    start: [0,0,0]\n    end: [0,0,0.05]\n" + tail) +
+               " --pose " + good_pose + " --out " + out),
+      "parallel");
+  expect_bad_input(weldtwin("plan --part " + temp_file("bad_part.yaml", "seams: [oops\n") + " --pose " +
+                            good_pose + " --out " + out),
+                   "bad_part.yaml");
+}
+
 TEST(Cli, ScanWritesLogCloudAndTruth) {
   const auto dir = std::filesystem::temp_directory_path() / "weldtwin_cli_scan";
   std::filesystem::create_directories(dir);

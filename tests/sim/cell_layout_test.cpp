@@ -76,10 +76,11 @@ TEST(CellLayout, ImpossibleLayoutsAreRefused) {
     return std::string();
   };
   EXPECT_EQ(why({0.44, 0.06, 0.0, 0.4}), "");
-  EXPECT_NE(why({0.2, 0.54, 0.0, 0.0}).find("off the table"),
+  EXPECT_NE(why({0.161, 0.495, 0.0, deg2rad(45)}).find("off the table"),
             std::string::npos);  // within reach, over the edge
   EXPECT_NE(why({0.95, 0.0, 0.0, 0.0}).find("out of reach"), std::string::npos);
-  EXPECT_NE(why({0.62, 0.0, 0.0, 0.0}).find("out of reach"), std::string::npos);  // seams beyond the reach
+  EXPECT_NE(why({0.56, 0.0, 0.0, 0.0}).find("out of reach"), std::string::npos);  // seams beyond the reach
+  EXPECT_NE(why({0.36, 0.0, 0.0, 0.0}).find("out of reach"), std::string::npos);  // too close to weld
   EXPECT_NE(why({0.44, 0.06, -0.002, 0.0}).find("intersects the table"), std::string::npos);
   EXPECT_NE(why({0.44, 0.06, 0.01, 0.0}).find("floats"), std::string::npos);
   EXPECT_NE(why({0.1, 0.55, 0.0, 0.0}).find("out of reach"), std::string::npos);  // bearing beyond 75 deg

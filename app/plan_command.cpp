@@ -1,0 +1,120 @@
+#include "app/plan_command.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "core/cell_spec.hpp"
+#include "core/error.hpp"
+#include "core/part_spec.hpp"
+#include "planning/weld_planner.hpp"
+
+namespace weldtwin {
+namespace {
+
+// T_base_part from a pose JSON (DESIGN.md: {"T_base_part": [[4x4 row-major]], ...}).
+Iso3 read_pose(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw input_error(path, "cannot open the pose file");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw input_error(path, std::string("malformed JSON: ") + e.what());
+  }
+  if (!j.contains("T_base_part")) throw input_error(path, "no field 'T_base_part'");
+  const auto& m = j["T_base_part"];
+  if (!m.is_array() || m.size() != 4) throw input_error(path, "T_base_part must be a 4x4 array");
+  Eigen::Matrix4d M;
+  for (int r = 0; r < 4; ++r) {
+    if (!m[static_cast<size_t>(r)].is_array() || m[static_cast<size_t>(r)].size() != 4)
+      throw input_error(path, "T_base_part must be a 4x4 array");
+    for (int c = 0; c < 4; ++c) {
+      const auto& v = m[static_cast<size_t>(r)][static_cast<size_t>(c)];
+      if (!v.is_number() || !std::isfinite(v.get<double>()))
+        throw input_error(path, "T_base_part has a non-number");
+      M(r, c) = v.get<double>();
+    }
+  }
+  Iso3 T;
+  T.matrix() = M;
+  if ((T.linear() * T.linear().transpose() - Mat3::Identity()).norm() > 1e-6 ||
+      T.linear().determinant() < 0 || (M.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).norm() > 1e-9)
+    throw input_error(path, "T_base_part is not a rigid transform");
+  return orthonormalized(T);
+}
+
+nlohmann::json pose_json(const Iso3& T) {
+  const Quat q(T.linear());
+  return {T.translation().x(), T.translation().y(), T.translation().z(), q.w(), q.x(), q.y(), q.z()};
+}
+
+}  // namespace
+
+int run_plan(const PlanCommand& cmd) {
+  const CellSpec cell = CellSpec::load(
+      cmd.cell.empty() ? std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml" : cmd.cell);
+  const RobotModel robot = RobotModel::load(cell.robot_urdf);
+  const PartSpec part = PartSpec::load(cmd.part);
+  const Iso3 T_base_part = read_pose(cmd.pose);
+  const PlanSetting setting;
+  const WeldPlan plan = plan_welds(part, T_base_part, robot, setting);
+
+  nlohmann::json out;
+  out["part"] = part.name;
+  out["robot"] = robot.name();
+  out["ok"] = plan.ok();
+  out["problems"] = plan.problems;
+  out["notes"] = plan.notes;
+  out["sample_hz"] = setting.sample_hz;
+  out["duration_s"] = plan.duration_s();
+  out["T_flange_tcp"] = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r)
+    out["T_flange_tcp"].push_back({plan.T_flange_tcp.matrix()(r, 0), plan.T_flange_tcp.matrix()(r, 1),
+                                   plan.T_flange_tcp.matrix()(r, 2), plan.T_flange_tcp.matrix()(r, 3)});
+  for (const PlannedSeam& s : plan.seams) {
+    nlohmann::json rolls = nlohmann::json::array();
+    for (double r : s.roll_per_piece_rad) rolls.push_back(r * 180.0 / kPi);
+    out["seams"].push_back({{"name", s.name},
+                            {"start_base", {s.start_base.x(), s.start_base.y(), s.start_base.z()}},
+                            {"end_base", {s.end_base.x(), s.end_base.y(), s.end_base.z()}},
+                            {"length_m", s.length_m},
+                            {"speed_m_s", s.speed_m_s},
+                            {"pieces", s.pieces},
+                            {"torch_roll_deg", rolls}});
+  }
+  nlohmann::json samples = nlohmann::json::array();
+  for (const PlanSample& s : plan.samples)
+    samples.push_back({{"t", s.t_s},
+                       {"q", {s.q[0], s.q[1], s.q[2], s.q[3], s.q[4], s.q[5]}},
+                       {"tcp", pose_json(s.T_base_tcp)},
+                       {"seam", s.seam},
+                       {"arc", s.arc},
+                       {"phase", phase_name(s.phase)}});
+  out["samples"] = std::move(samples);
+  std::ofstream(cmd.out) << out.dump() << '\n';
+  if (!cmd.csv.empty()) {
+    std::ofstream csv(cmd.csv);
+    csv << "t,j1,j2,j3,j4,j5,j6\n";
+    char line[256];
+    for (const PlanSample& s : plan.samples) {
+      std::snprintf(line, sizeof line, "%.4f,%.9f,%.9f,%.9f,%.9f,%.9f,%.9f\n", s.t_s, s.q[0], s.q[1], s.q[2],
+                    s.q[3], s.q[4], s.q[5]);
+      csv << line;
+    }
+  }
+  if (!cmd.quiet) {
+    std::fprintf(stderr, "plan: %s, %zu seams, %.1f s, %zu samples at %.0f Hz -> %s\n", part.name.c_str(),
+                 plan.seams.size(), plan.duration_s(), plan.samples.size(), setting.sample_hz,
+                 cmd.out.c_str());
+    for (const auto& n : plan.notes) std::fprintf(stderr, "plan: note: %s\n", n.c_str());
+  }
+  if (!plan.ok()) {
+    std::fprintf(stderr, "weldtwin: %s: %s\n", cmd.part.c_str(), plan.problems.front().c_str());
+    return 3;
+  }
+  return 0;
+}
+
+}  // namespace weldtwin

@@ -1,0 +1,19 @@
+// The torch orientation of DESIGN.md, from a seam's travel direction d, its normals n and m, and the work,
+// travel and roll angles:
+//   a0 = -(cos w n + sin w m)   (n, m made orthogonal to d; w = 45 deg bisects a fillet)
+//   a  = cos(tau) a0 + sin(tau) d   (travel angle tau, push positive)
+//   z_tcp = a; x_tcp = d made orthogonal to a, turned by the roll about a; y = z x x.
+#pragma once
+
+#include "core/geometry.hpp"
+
+namespace weldtwin {
+
+/// R_base_tcp for the given seam directions (base frame) and angles [rad].
+Mat3 torch_orientation(const Vec3& d, const Vec3& n, const Vec3& m, double work, double travel, double roll);
+
+/// The work and travel angles of a torch orientation with respect to a seam: the inverse of the above.
+void torch_angles(const Mat3& R_base_tcp, const Vec3& d, const Vec3& n, const Vec3& m, double& work,
+                  double& travel);
+
+}  // namespace weldtwin

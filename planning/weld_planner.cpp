@@ -1,0 +1,509 @@
+#include "planning/weld_planner.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <optional>
+#include <sstream>
+
+#include "planning/ik_aubo.hpp"
+#include "planning/lspb.hpp"
+#include "planning/torch_frame.hpp"
+
+namespace weldtwin {
+namespace {
+
+// A seam in the base frame, parameterised by arc length s in [0, length].
+struct SeamGeometry {
+  const Seam* seam = nullptr;
+  Iso3 T_base_part = Iso3::Identity();
+  double length = 0.0;
+
+  Vec3 point(double s) const { return T_base_part * seam->point_at(s / length); }
+  Iso3 tcp(double s, double roll) const {
+    const double f = s / length;
+    const Mat3& R = T_base_part.linear();
+    return make_transform(
+        point(s), torch_orientation(R * seam->direction_at(f), R * seam->normal, R * seam->wall_normal_at(f),
+                                    seam->work_angle_rad, seam->travel_angle_rad, roll));
+  }
+};
+
+// How well a roll and an IK branch suit a stretch of seam.
+struct Choice {
+  bool ok = false;
+  double roll = 0.0;
+  int branch = -1;
+  double margin = -1.0;
+  JointVector q_start = JointVector::Zero();
+};
+
+Iso3 backed_off(const Iso3& T_tcp, double distance) {
+  Iso3 T = T_tcp;
+  T.translation() -= distance * T_tcp.linear().col(2);
+  return T;
+}
+
+class Builder {
+ public:
+  Builder(const RobotModel& robot, const PlanSetting& setting, WeldPlan& plan)
+      : robot_(robot),
+        ik_(robot, "tcp"),
+        set_(setting),
+        plan_(plan),
+        q_(setting.home),
+        dt_(1.0 / setting.sample_hz) {}
+
+  const AuboIk& ik() const { return ik_; }
+  void set_branch(int branch) { branch_ = branch; }
+  const JointVector& q() const { return q_; }
+
+  // Margin of a solution: distance to the joint limits and to the shoulder, elbow and wrist singularities;
+  // negative when too close to any of them.
+  double margin(const IkSolution& s) const {
+    const double limits = std::min((s.q - robot_.lower()).minCoeff(), (robot_.upper() - s.q).minCoeff());
+    const double singular = std::min({s.shoulder_margin, s.elbow_margin, s.wrist_margin});
+    if (limits < set_.min_margin_rad || singular < set_.min_singularity_sine) return -1.0;
+    return std::min(limits, singular);
+  }
+
+  // Best roll and branch for the stretch [s0, s1] of a seam, including its approach pose. A fixed roll is
+  // the only candidate; `prefer_branch` wins ties (a corner can then be welded through).
+  Choice choose(const SeamGeometry& g, double s0, double s1, std::optional<double> fixed_roll,
+                int prefer_branch) const {
+    std::vector<double> rolls;
+    if (fixed_roll) {
+      rolls.push_back(*fixed_roll);
+    } else {
+      for (double r = -kPi; r < kPi - 1e-9; r += set_.roll_step_rad) rolls.push_back(r);
+    }
+    const int stations = std::max(8, static_cast<int>((s1 - s0) / 0.005));
+    Choice best;
+    for (double roll : rolls) {
+      std::array<double, 8> worst;
+      worst.fill(std::numeric_limits<double>::infinity());
+      std::array<JointVector, 8> last, first;
+      // Stations along the stretch, plus its approach (k = -1) and departure (k = stations + 1) poses.
+      for (int k = -1; k <= stations + 1; ++k) {
+        const Iso3 pose = k < 0          ? backed_off(g.tcp(s0, roll), set_.approach_m)
+                          : k > stations ? backed_off(g.tcp(s1, roll), set_.approach_m)
+                                         : g.tcp(s0 + (s1 - s0) * k / stations, roll);
+        const auto sols = ik_.solve(pose, k < 0 ? q_[5] : last[0][5]);
+        for (int b = 0; b < 8; ++b) {
+          const IkSolution& s = sols[static_cast<size_t>(b)];
+          double m = s.valid && s.within_limits ? margin(s) : -1.0;
+          if (m >= 0 && k > 0 && k <= stations &&
+              (s.q - last[static_cast<size_t>(b)]).cwiseAbs().maxCoeff() > 0.3)
+            m = -1.0;
+          worst[static_cast<size_t>(b)] = std::min(worst[static_cast<size_t>(b)], m);
+          if (s.valid) last[static_cast<size_t>(b)] = s.q;
+          if (k < 0) first[static_cast<size_t>(b)] = s.q;
+        }
+      }
+      for (int b = 0; b < 8; ++b) {
+        const double m = worst[static_cast<size_t>(b)] + (b == prefer_branch ? 0.05 : 0.0);
+        if (worst[static_cast<size_t>(b)] < 0 || m <= best.margin) continue;
+        best = {true, roll, b, m, first[static_cast<size_t>(b)]};
+      }
+    }
+    return best;
+  }
+
+  void problem(const std::string& what) { plan_.problems.push_back(what); }
+
+  // Runs a piece of trajectory; if it fails, or breaks a joint velocity or acceleration limit, the piece is
+  // taken back and, unless it is a weld (whose speed is the spec's), tried again at half and a quarter of
+  // the speed. Returns false, with the problem recorded, when no try works.
+  template <typename Piece>
+  bool checked(Piece piece, bool is_weld, const std::string& what) {
+    const size_t n0 = plan_.samples.size(), p0 = plan_.problems.size();
+    const JointVector q0 = q_;
+    const double t0 = t_;
+    std::vector<std::string> why;
+    for (double scale : {1.0, 2.0, 4.0}) {
+      slow_ = scale;
+      const bool ran = piece();
+      if (ran) {
+        const size_t from = n0 >= 2 ? n0 - 2 : 0;
+        const std::vector<PlanSample> window(plan_.samples.begin() + static_cast<long>(from),
+                                             plan_.samples.end());
+        why = check_joint_limits(window, robot_, set_.sample_hz);
+        if (why.empty()) {
+          slow_ = 1.0;
+          return true;
+        }
+      } else {
+        why.assign(plan_.problems.begin() + static_cast<long>(p0), plan_.problems.end());
+      }
+      plan_.samples.resize(n0);
+      plan_.problems.resize(p0);
+      q_ = q0;
+      t_ = t0;
+      if (is_weld) break;
+    }
+    slow_ = 1.0;
+    for (const std::string& w : why)
+      problem(is_weld && w.rfind("joint", 0) == 0 ? what + " cannot be welded at its speed: " + w : w);
+    if (why.empty()) problem(what + ": failed");
+    return false;
+  }
+
+  // One sample: the configuration nearest the current one that puts the TCP at `T`.
+  bool add(const Iso3& T, int seam, Phase phase, const std::string& what) {
+    const bool arc = phase == Phase::kWeld || phase == Phase::kCorner;
+    // The IK branch chosen for the seam; no hopping to a neighbouring branch near a singularity.
+    const IkSolution sol = ik_.solve(T, q_[5])[static_cast<size_t>(branch_)];
+    if (!sol.valid || !sol.within_limits) {
+      problem(what + ": a pose on the path is out of reach");
+      return false;
+    }
+    JointVector next = sol.q;
+    // Angles are in (-pi, pi]: take the turn nearest to the current configuration.
+    for (int j = 0; j < 6; ++j) next[j] = q_[j] + std::remainder(next[j] - q_[j], 2.0 * kPi);
+    if (((next - robot_.lower()).array() < 0).any() || ((robot_.upper() - next).array() < 0).any()) {
+      problem(what + ": a pose on the path is out of reach");
+      return false;
+    }
+    // Between two samples no joint can move more than its velocity limit allows, with some slack: a bigger
+    // step is a jump to another IK branch.
+    if (((next - q_).cwiseAbs().array() > 1.5 * robot_.max_velocity().array() * dt_).any()) {
+      problem(what + ": the path needs a configuration change (IK branch flip)");
+      return false;
+    }
+    q_ = next;
+    t_ += dt_;
+    plan_.samples.push_back({t_, q_, T, seam, arc, phase});
+    return true;
+  }
+
+  // Joint-space LSPB to `to`, as fast as the scaled limits allow, every joint on the same profile.
+  void joint_move(const JointVector& to) {
+    const JointVector from = q_, delta = to - from;
+    double duration = 0.0;
+    Lspb law;
+    for (int j = 0; j < 6; ++j) {
+      const Lspb l = Lspb::fastest(std::abs(delta[j]), set_.limit_fraction * robot_.max_velocity()[j] / slow_,
+                                   set_.limit_fraction * robot_.max_acceleration()[j] / (slow_ * slow_));
+      if (l.duration > duration) {
+        duration = l.duration;
+        law = l;
+      }
+    }
+    const int n = static_cast<int>(std::ceil(duration / dt_ - 1e-9));
+    for (int k = 1; k <= n; ++k) {
+      double s, sd, sdd;
+      law.at(k * dt_, s, sd, sdd);
+      q_ = from + (law.length > 0 ? s / law.length : 1.0) * delta;
+      t_ += dt_;
+      plan_.samples.push_back({t_, q_, ik_.fk(q_), -1, false, Phase::kTransit});
+    }
+  }
+
+  // Straight TCP line at fixed orientation (approach, departure), arc off.
+  bool line(const Iso3& from, const Iso3& to, Phase phase, const std::string& what) {
+    const Vec3 delta = to.translation() - from.translation();
+    const Lspb law = Lspb::fastest(delta.norm(), set_.approach_speed_m_s / slow_,
+                                   set_.approach_accel_m_s2 / (slow_ * slow_));
+    const int n = static_cast<int>(std::ceil(law.duration / dt_ - 1e-9));
+    for (int k = 1; k <= n; ++k) {
+      double s, sd, sdd;
+      law.at(k * dt_, s, sd, sdd);
+      Iso3 T = from;
+      T.translation() += (law.length > 0 ? s / law.length : 1.0) * delta;
+      if (!add(T, -1, phase, what)) return false;
+    }
+    return true;
+  }
+
+  // The seam itself, arc on: LSPB along its arc length at the weld speed (DESIGN.md's timing law).
+  bool weld(const SeamGeometry& g, double s0, double s1, double roll, int seam_index) {
+    const Lspb law = Lspb::with_blend_fraction(s1 - s0, g.seam->speed_m_s, set_.blend_fraction);
+    const int n = static_cast<int>(std::ceil(law.duration / dt_ - 1e-9));
+    for (int k = 1; k <= n; ++k) {
+      double s, sd, sdd;
+      law.at(k * dt_, s, sd, sdd);
+      if (!add(g.tcp(s0 + s, roll), seam_index, Phase::kWeld, "seam '" + g.seam->name + "'")) return false;
+    }
+    return true;
+  }
+
+  // Turning the torch at a corner where two seams meet, the TCP standing still on the corner, arc on.
+  bool corner(const Iso3& from, const Iso3& to, int seam_index, const std::string& what) {
+    JointVector q_to;
+    if (!ik_.nearest(to, q_, q_to)) {
+      problem(what + ": the corner's end pose is out of reach");
+      return false;
+    }
+    double duration = 0.0;
+    for (int j = 0; j < 6; ++j)
+      duration = std::max(
+          duration, Lspb::fastest(std::abs(q_to[j] - q_[j]), set_.limit_fraction * robot_.max_velocity()[j],
+                                  set_.limit_fraction * robot_.max_acceleration()[j])
+                        .duration);
+    duration = std::max(duration, 0.2) * slow_;
+    const Lspb law = Lspb::fastest(1.0, 1.0 / (0.5 * duration), 1.0 / (0.25 * duration * duration));
+    const Quat a(from.linear()), b(to.linear());
+    const int n = static_cast<int>(std::ceil(law.duration / dt_ - 1e-9));
+    for (int k = 1; k <= n; ++k) {
+      double s, sd, sdd;
+      law.at(k * dt_, s, sd, sdd);
+      if (!add(make_transform(from.translation(), a.slerp(s, b).toRotationMatrix()), seam_index,
+               Phase::kCorner, what))
+        return false;
+    }
+    return true;
+  }
+
+ private:
+  const RobotModel& robot_;
+  AuboIk ik_;
+  const PlanSetting& set_;
+  WeldPlan& plan_;
+  JointVector q_;
+  double dt_;
+  double t_ = 0.0;
+  double slow_ = 1.0;  ///< duration factor of the piece being tried (checked())
+  int branch_ = 0;     ///< IK branch of the seam being welded
+};
+
+}  // namespace
+
+const char* phase_name(Phase phase) {
+  switch (phase) {
+    case Phase::kTransit:
+      return "transit";
+    case Phase::kApproach:
+      return "approach";
+    case Phase::kWeld:
+      return "weld";
+    case Phase::kCorner:
+      return "corner";
+    case Phase::kDeparture:
+      return "departure";
+  }
+  return "?";
+}
+
+WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotModel& robot,
+                    const PlanSetting& setting) {
+  WeldPlan plan;
+  const JointVector zero = JointVector::Zero();
+  plan.T_flange_tcp = robot.forward_kinematics(zero, robot.require_link("flange")).inverse() *
+                      robot.forward_kinematics(zero, robot.require_link("tcp"));
+  Builder b(robot, setting, plan);
+  plan.samples.push_back({0.0, setting.home, b.ik().fk(setting.home), -1, false, Phase::kTransit});
+
+  bool at_corner = false;  // the TCP stands at the start of the next seam with the arc on
+  int branch = -1;
+  for (size_t i = 0; i < part.seams.size(); ++i) {
+    const Seam& seam = part.seams[i];
+    SeamGeometry g{&seam, T_base_part, seam.length_m()};
+    PlannedSeam ps;
+    ps.name = seam.name;
+    ps.start_base = g.point(0.0);
+    ps.end_base = g.point(g.length);
+    ps.length_m = g.length;
+    ps.speed_m_s = seam.speed_m_s;
+    const std::string what = "seam '" + seam.name + "'";
+
+    // Split into pieces that one roll and one IK branch can weld (more than one: re-grips). Greedy longest
+    // stretches give the number of pieces; equal pieces are preferred, so no piece is too short to blend.
+    std::vector<std::pair<double, double>> pieces;
+    std::vector<Choice> choices;
+    double s0 = 0.0;
+    while (s0 < g.length - 1e-9) {
+      Choice c = b.choose(g, s0, g.length, seam.torch_roll_rad, branch);
+      double s1 = g.length;
+      if (!c.ok && seam.kind == Seam::Kind::kArc && !seam.torch_roll_rad) {
+        // The longest stretch from s0 that some roll can weld, by bisection on its end.
+        double lo = s0, hi = g.length;
+        for (int it = 0; it < 12; ++it) {
+          const double mid = 0.5 * (lo + hi);
+          const Choice cm = b.choose(g, s0, mid, seam.torch_roll_rad, branch);
+          if (cm.ok) {
+            lo = mid;
+            c = cm;
+          } else {
+            hi = mid;
+          }
+        }
+        s1 = lo;
+        // Leave no stub too short to blend at the weld speed: end this piece earlier instead.
+        constexpr double kMinPiece = 0.025;
+        if (g.length - s1 < kMinPiece && g.length - kMinPiece - s0 >= 0.01) {
+          s1 = g.length - kMinPiece;
+          c = b.choose(g, s0, s1, seam.torch_roll_rad, branch);
+        }
+        if (s1 - s0 < 0.01) c.ok = false;
+      }
+      if (!c.ok) {
+        plan.problems.push_back(what +
+                                (seam.torch_roll_rad ? ": unreachable with its torch roll"
+                                                     : ": unreachable with any torch roll") +
+                                " (out of reach, or closer than the set margins to the joint limits or to a"
+                                " singularity)");
+        break;
+      }
+      pieces.emplace_back(s0, s1);
+      choices.push_back(c);
+      s0 = s1;
+    }
+    for (size_t n = pieces.size(); n > 1 && n <= pieces.size() + 1 && plan.problems.empty(); ++n) {
+      std::vector<std::pair<double, double>> equal;
+      std::vector<Choice> equal_choices;
+      for (size_t k = 0; k < n; ++k) {
+        const double a = g.length * static_cast<double>(k) / static_cast<double>(n);
+        const double e = g.length * static_cast<double>(k + 1) / static_cast<double>(n);
+        const Choice c = b.choose(g, a, e, seam.torch_roll_rad, branch);
+        if (!c.ok) break;
+        equal.emplace_back(a, e);
+        equal_choices.push_back(c);
+      }
+      if (equal.size() == n) {
+        pieces = equal;
+        choices = equal_choices;
+        break;
+      }
+    }
+    if (!plan.problems.empty()) break;
+    ps.pieces = static_cast<int>(pieces.size());
+    ps.roll_rad = choices.front().roll;
+    for (const Choice& c : choices) ps.roll_per_piece_rad.push_back(c.roll);
+    if (pieces.size() > 1) {
+      std::ostringstream note;
+      note << what << ": J6 cannot follow it in one go; welded in " << pieces.size()
+           << " pieces with re-grips at";
+      for (size_t k = 1; k < pieces.size(); ++k) note << ' ' << 1000.0 * pieces[k].first << " mm";
+      plan.notes.push_back(note.str());
+    }
+
+    for (size_t k = 0; k < pieces.size() && plan.problems.empty(); ++k) {
+      const Choice& c = choices[k];
+      const Iso3 start = g.tcp(pieces[k].first, c.roll);
+      const size_t problems_before = plan.problems.size();
+      bool through_corner = false;
+      if (at_corner && k == 0 && c.branch == branch) {
+        // Weld through the corner: turn the torch on the spot from the previous seam's end. If the turn
+        // cannot be made within the limits, stop and start again instead.
+        const Iso3 here = plan.samples.back().T_base_tcp;
+        through_corner = b.checked(
+            [&] { return b.corner(here, start, static_cast<int>(i), what + " (corner)"); }, false, what);
+        if (!through_corner) plan.problems.resize(problems_before);
+      }
+      if (!through_corner) {
+        if (at_corner) {
+          const Iso3 here = plan.samples.back().T_base_tcp;
+          if (!b.checked(
+                  [&] {
+                    return b.line(here, backed_off(here, setting.approach_m), Phase::kDeparture,
+                                  "departure before " + what);
+                  },
+                  false, "departure before " + what))
+            break;
+        }
+        b.set_branch(c.branch);
+        if (!b.checked(
+                [&] {
+                  b.joint_move(c.q_start);
+                  return true;
+                },
+                false, "transit to " + what))
+          break;
+        if (!b.checked(
+                [&] {
+                  return b.line(backed_off(start, setting.approach_m), start, Phase::kApproach,
+                                "approach to " + what);
+                },
+                false, "approach to " + what))
+          break;
+      }
+      branch = c.branch;
+      if (!b.checked(
+              [&] { return b.weld(g, pieces[k].first, pieces[k].second, c.roll, static_cast<int>(i)); }, true,
+              what))
+        break;
+      at_corner = true;
+      const bool next_joins =
+          i + 1 < part.seams.size() && k + 1 == pieces.size() &&
+          (g.point(g.length) - T_base_part * part.seams[i + 1].start).norm() < setting.corner_tolerance_m;
+      if (!next_joins) {
+        const Iso3 here = plan.samples.back().T_base_tcp;
+        if (!b.checked(
+                [&] {
+                  return b.line(here, backed_off(here, setting.approach_m), Phase::kDeparture,
+                                "departure from " + what);
+                },
+                false, "departure from " + what))
+          break;
+        at_corner = false;
+      }
+    }
+    plan.seams.push_back(ps);
+    if (!plan.problems.empty()) break;
+  }
+  if (plan.problems.empty()) {
+    if (at_corner) {
+      const Iso3 here = plan.samples.back().T_base_tcp;
+      b.checked(
+          [&] {
+            return b.line(here, backed_off(here, setting.approach_m), Phase::kDeparture, "final departure");
+          },
+          false, "final departure");
+    }
+    if (plan.problems.empty())
+      b.checked(
+          [&] {
+            b.joint_move(setting.home);
+            return true;
+          },
+          false, "transit home");
+  }
+  if (plan.problems.empty()) plan.problems = check_joint_limits(plan.samples, robot, setting.sample_hz);
+  return plan;
+}
+
+std::vector<std::string> check_joint_limits(const std::vector<PlanSample>& samples, const RobotModel& robot,
+                                            double sample_hz) {
+  std::vector<std::string> out;
+  double worst_v[6] = {0}, worst_a[6] = {0};
+  int at_v[6] = {0}, at_a[6] = {0};
+  for (size_t k = 0; k < samples.size(); ++k) {
+    const JointVector& q = samples[k].q;
+    for (int j = 0; j < 6; ++j)
+      if (q[j] < robot.lower()[j] || q[j] > robot.upper()[j]) {
+        out.push_back("joint " + std::to_string(j + 1) +
+                      " leaves its limits at t = " + std::to_string(samples[k].t_s) + " s");
+        return out;
+      }
+    if (k + 1 < samples.size()) {
+      const JointVector v = (samples[k + 1].q - q) * sample_hz;
+      for (int j = 0; j < 6; ++j)
+        if (std::abs(v[j]) > worst_v[j]) {
+          worst_v[j] = std::abs(v[j]);
+          at_v[j] = static_cast<int>(k);
+        }
+    }
+    if (k > 0 && k + 1 < samples.size()) {
+      const JointVector a = (samples[k + 1].q - 2.0 * q + samples[k - 1].q) * sample_hz * sample_hz;
+      for (int j = 0; j < 6; ++j)
+        if (std::abs(a[j]) > worst_a[j]) {
+          worst_a[j] = std::abs(a[j]);
+          at_a[j] = static_cast<int>(k);
+        }
+    }
+  }
+  // A small tolerance for the finite differences of exact LSPB profiles.
+  for (int j = 0; j < 6; ++j) {
+    if (worst_v[j] > robot.max_velocity()[j] * 1.001)
+      out.push_back("joint " + std::to_string(j + 1) + " needs " + std::to_string(worst_v[j]) +
+                    " rad/s at t = " + std::to_string(samples[static_cast<size_t>(at_v[j])].t_s) +
+                    " s (limit " + std::to_string(robot.max_velocity()[j]) + ")");
+    if (worst_a[j] > robot.max_acceleration()[j] * 1.001)
+      out.push_back("joint " + std::to_string(j + 1) + " needs " + std::to_string(worst_a[j]) +
+                    " rad/s^2 at t = " + std::to_string(samples[static_cast<size_t>(at_a[j])].t_s) +
+                    " s (limit " + std::to_string(robot.max_acceleration()[j]) + ")");
+  }
+  return out;
+}
+
+}  // namespace weldtwin

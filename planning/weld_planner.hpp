@@ -1,0 +1,70 @@
+// The weld program: every seam of a part, at its pose, as torch poses timed by LSPB and the 200 Hz joint
+// trajectory of the Aubo i5 that realises them: transit (joint space) -> approach along the torch axis (arc
+// off) -> the seam (arc on) -> corner transitions where seams meet -> departure -> ... -> home. Free torch
+// rolls are chosen for the largest joint-limit and singularity margin; circular seams that J6 cannot follow
+// in one go are split with a re-grip. Every sample is checked against the joint limits after IK; what cannot
+// be welded is reported by seam name with the reason, never slowed down or dropped silently.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/part_spec.hpp"
+#include "core/robot_model.hpp"
+
+namespace weldtwin {
+
+struct PlanSetting {
+  double blend_fraction = 0.025;       ///< LSPB blend time as a fraction of each seam's time
+  double sample_hz = 200.0;            ///< joint stream rate of the controller
+  double approach_m = 0.04;            ///< approach and departure distance along the torch axis
+  double approach_speed_m_s = 0.02;    ///< approach and departure speed
+  double approach_accel_m_s2 = 0.1;    ///< and acceleration
+  double limit_fraction = 0.5;         ///< transits and corners use this fraction of the joint limits
+  double roll_step_rad = deg2rad(15);  ///< candidate free rolls are tried at this spacing
+  double corner_tolerance_m = 1e-3;    ///< seams closer than this at end/start are welded through the corner
+  double min_margin_rad = deg2rad(3);  ///< joint-limit margin a free-roll choice must keep
+  double min_singularity_sine = 0.08;  ///< how far (IkSolution margins) a choice must stay from singularities
+  JointVector home = (JointVector() << 0, 0, kPi / 2, 0, kPi / 2, 0).finished();  ///< start and end [rad]
+};
+
+enum class Phase { kTransit, kApproach, kWeld, kCorner, kDeparture };
+const char* phase_name(Phase phase);
+
+struct PlanSample {
+  double t_s = 0.0;
+  JointVector q = JointVector::Zero();
+  Iso3 T_base_tcp = Iso3::Identity();
+  int seam = -1;     ///< seam index for arc-on samples, -1 otherwise
+  bool arc = false;  ///< welding
+  Phase phase = Phase::kTransit;
+};
+
+struct PlannedSeam {
+  std::string name;
+  Vec3 start_base = Vec3::Zero(), end_base = Vec3::Zero();
+  double length_m = 0.0, speed_m_s = 0.0, roll_rad = 0.0;
+  int pieces = 1;  ///< > 1: split with re-grips
+  std::vector<double> roll_per_piece_rad;
+};
+
+struct WeldPlan {
+  Iso3 T_flange_tcp = Iso3::Identity();
+  std::vector<PlannedSeam> seams;
+  std::vector<PlanSample> samples;
+  std::vector<std::string> notes;     ///< e.g. re-grips
+  std::vector<std::string> problems;  ///< "seam 'x': reason"; empty when the plan is good
+  double duration_s() const { return samples.empty() ? 0.0 : samples.back().t_s; }
+  bool ok() const { return problems.empty(); }
+};
+
+/// Plans every seam of `part` at T_base_part. Never throws for an unreachable seam: it is in `problems`.
+WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotModel& robot,
+                    const PlanSetting& setting = {});
+
+/// Joint velocity and acceleration of the trajectory by finite differences, checked against the limits;
+/// returns one line per violated joint and kind (empty when within limits).
+std::vector<std::string> check_joint_limits(const std::vector<PlanSample>& samples, const RobotModel& robot,
+                                            double sample_hz);
+
+}  // namespace weldtwin

@@ -1,0 +1,240 @@
+// Weld plans of the three parts: every sample reproduces its TCP pose, arc-on samples lie on their seam, the
+// seam speed and its blends follow the LSPB law, the torch angles are the spec's, and the joints stay within
+// their limits. Geometry checks here are written independently of the planner.
+#include "planning/weld_planner.hpp"
+
+#include <gtest/gtest.h>
+
+#include <map>
+
+#include "planning/lspb.hpp"
+#include "planning/torch_frame.hpp"
+#include "tests/test_support.hpp"
+
+namespace weldtwin {
+namespace {
+
+// Distance from p to a seam (base frame), sampled finely enough for a 0.01 mm check on lines and arcs.
+double distance_to_seam(const Seam& seam, const Iso3& T, const Vec3& p) {
+  const Vec3 q = T.inverse() * p;
+  if (seam.kind == Seam::Kind::kLine) {
+    const Vec3 ab = seam.end - seam.start;
+    const double s = std::clamp((q - seam.start).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+    return (seam.start + s * ab - q).norm();
+  }
+  // Circle: distance to the circle of the arc (the arc covers it whole here).
+  const Vec3 v = q - seam.center;
+  const double h = v.dot(seam.axis);
+  const double radial = (v - h * seam.axis).norm() - seam.radius_m;
+  return std::hypot(h, radial);
+}
+
+struct Planned {
+  PartSpec part;
+  Iso3 T_base_part;
+  WeldPlan plan;
+};
+
+std::vector<Planned> plans_for_tests() {
+  std::vector<Planned> out;
+  for (const char* file :
+       {"scenes/cells/default.yaml", "scenes/cells/round_on_plate.yaml", "scenes/cells/tube_tee.yaml"}) {
+    for (int seed = 0; seed <= 12; ++seed) {
+      const CellSpec cell = CellSpec::load(test::repo(file));
+      const PartSpec part = PartSpec::load(cell.part_spec);
+      const RobotModel robot = RobotModel::load(cell.robot_urdf);
+      const CellLayout layout =
+          seed == 0 ? make_layout(cell, part, std::nullopt) : make_layout(cell, part, seed);
+      out.push_back({part, layout.T_base_part, plan_welds(part, layout.T_base_part, robot)});
+    }
+  }
+  return out;
+}
+
+const std::vector<Planned>& plans() {
+  static const std::vector<Planned> p = plans_for_tests();
+  return p;
+}
+
+TEST(WeldPlanner, ThePartsPlanAtTheirCellAndSeededPoses) {
+  // The cell's own poses plan; of the seeded ones, a seam the arm cannot weld at its speed and angles is
+  // reported by name (an honest refusal), never planned anyway. Most seeded poses plan.
+  std::map<std::string, std::pair<int, int>> rate;
+  for (size_t i = 0; i < plans().size(); ++i) {
+    const Planned& p = plans()[i];
+    const bool cell_pose = i % 13 == 0;
+    if (cell_pose) {
+      EXPECT_TRUE(p.plan.ok()) << p.part.name << ": " << p.plan.problems.front();
+    }
+    rate[p.part.name].first += p.plan.ok();
+    rate[p.part.name].second += 1;
+    if (p.plan.ok()) {
+      EXPECT_EQ(p.plan.seams.size(), p.part.seams.size());
+    } else {
+      EXPECT_EQ(p.plan.problems.front().rfind("seam '", 0), 0u) << p.plan.problems.front();
+      std::printf("%s refused: %s\n", p.part.name.c_str(), p.plan.problems.front().c_str());
+    }
+    for (const std::string& n : p.plan.notes) std::printf("%s: %s\n", p.part.name.c_str(), n.c_str());
+  }
+  for (const auto& [name, r] : rate) {
+    std::printf("%s: %d of %d poses planned\n", name.c_str(), r.first, r.second);
+    EXPECT_GE(r.first * 4, r.second * 3) << name;
+  }
+}
+
+TEST(WeldPlanner, EverySampleReproducesItsTcpPoseAndRespectsTheLimits) {
+  const RobotModel robot = RobotModel::load(test::repo("scenes/robots/aubo_i5.urdf"));
+  const int tcp = robot.require_link("tcp");
+  for (const Planned& p : plans()) {
+    if (!p.plan.ok()) continue;
+    double worst_p = 0, worst_r = 0;
+    for (const PlanSample& s : p.plan.samples) {
+      const Iso3 T = robot.forward_kinematics(s.q, tcp);
+      worst_p = std::max(worst_p, (T.translation() - s.T_base_tcp.translation()).norm());
+      worst_r = std::max(worst_r, Eigen::AngleAxisd(T.linear().transpose() * s.T_base_tcp.linear()).angle());
+    }
+    EXPECT_LT(worst_p, 1e-6) << p.part.name;
+    EXPECT_LT(worst_r, 1e-6) << p.part.name;
+    EXPECT_TRUE(check_joint_limits(p.plan.samples, robot, 200.0).empty()) << p.part.name;
+    // A uniform 200 Hz stream.
+    for (size_t k = 1; k < p.plan.samples.size(); ++k)
+      ASSERT_NEAR(p.plan.samples[k].t_s - p.plan.samples[k - 1].t_s, 0.005, 1e-9);
+  }
+}
+
+TEST(WeldPlanner, ArcOnSamplesLieOnTheirSeamWithTheSpecifiedTorchAngles) {
+  for (const Planned& p : plans()) {
+    if (!p.plan.ok()) continue;
+    double worst_d = 0, worst_work = 0, worst_travel = 0;
+    size_t arc_on = 0;
+    for (const PlanSample& s : p.plan.samples) {
+      if (!s.arc) continue;
+      ++arc_on;
+      ASSERT_GE(s.seam, 0);
+      const Seam& seam = p.part.seams[static_cast<size_t>(s.seam)];
+      worst_d = std::max(worst_d, distance_to_seam(seam, p.T_base_part, s.T_base_tcp.translation()));
+      if (s.phase != Phase::kWeld) continue;  // corners turn the torch on the spot
+      // Work and travel angles from the torch axis a: travel = asin(a . d); work = angle of -a0 from n
+      // towards m, a0 = a without its d component.
+      const Mat3& R = p.T_base_part.linear();
+      const Vec3 local = p.T_base_part.inverse() * s.T_base_tcp.translation();
+      double f = 0.0;
+      if (seam.kind == Seam::Kind::kLine) {
+        f = (local - seam.start).dot(seam.end - seam.start) / (seam.end - seam.start).squaredNorm();
+      } else {
+        const Vec3 r0 = seam.start - seam.center, r = local - seam.center;
+        f = std::atan2(seam.axis.dot(r0.cross(r)), r0.dot(r)) / seam.sweep_rad;
+        if (f < 0) f += 2 * kPi / seam.sweep_rad;
+      }
+      const Vec3 d = (R * seam.direction_at(f)).normalized();
+      const Vec3 n = (R * seam.normal - (R * seam.normal).dot(d) * d).normalized();
+      const Vec3 m0 = R * seam.wall_normal_at(f);
+      const Vec3 m = (m0 - m0.dot(d) * d).normalized();
+      const Vec3 a = s.T_base_tcp.linear().col(2);
+      const double travel = std::asin(a.dot(d));
+      const Vec3 b = -(a - a.dot(d) * d).normalized();
+      const double work = std::atan2(b.dot(m), b.dot(n));  // n and m are orthogonal for these parts
+      worst_work = std::max(worst_work, std::abs(rad2deg(work - seam.work_angle_rad)));
+      worst_travel = std::max(worst_travel, std::abs(rad2deg(travel - seam.travel_angle_rad)));
+    }
+    EXPECT_GT(arc_on, 500u) << p.part.name;
+    EXPECT_LT(worst_d, 1e-5) << p.part.name;  // 0.01 mm
+    EXPECT_LT(worst_work, 0.01) << p.part.name;
+    EXPECT_LT(worst_travel, 0.01) << p.part.name;
+  }
+}
+
+TEST(WeldPlanner, SeamSpeedAndBlendsFollowTheLspbLaw) {
+  const double dt = 0.005, f = PlanSetting().blend_fraction;
+  for (const Planned& p : plans()) {
+    if (!p.plan.ok()) continue;
+    // Runs of consecutive weld samples on one seam piece.
+    const auto& S = p.plan.samples;
+    for (size_t k = 0; k < S.size();) {
+      if (S[k].phase != Phase::kWeld) {
+        ++k;
+        continue;
+      }
+      size_t e = k;
+      while (e + 1 < S.size() && S[e + 1].phase == Phase::kWeld && S[e + 1].seam == S[k].seam) ++e;
+      const double v = p.part.seams[static_cast<size_t>(S[k].seam)].speed_m_s;
+      // Speeds between samples, starting from the sample before the run (where the TCP stood at the start).
+      std::vector<double> speed;
+      for (size_t i = k; i <= e; ++i)
+        speed.push_back((S[i].T_base_tcp.translation() - S[i - 1].T_base_tcp.translation()).norm() / dt);
+      // Cruise: every interval at the seam speed, within 0.5 %, between the blends.
+      const double T = static_cast<double>(speed.size()) * dt;  // rounded up to the sample period
+      const double tb = f * T;
+      size_t cruise = 0;
+      for (size_t i = 0; i < speed.size(); ++i) {
+        const double t0 = static_cast<double>(i) * dt, t1 = t0 + dt;
+        if (t0 >= tb + dt && t1 <= T - tb - 2 * dt) {
+          EXPECT_NEAR(speed[i], v, 0.005 * v) << p.part.name << " seam " << S[k].seam << " interval " << i;
+          ++cruise;
+        }
+      }
+      EXPECT_GT(cruise, speed.size() / 2);
+      // Blend: constant acceleration v / tb until the cruise speed is reached, a fraction f of the time.
+      size_t blend_intervals = 0;
+      while (blend_intervals < speed.size() && speed[blend_intervals] < v * (1 - 1e-6)) ++blend_intervals;
+      EXPECT_NEAR(blend_intervals * dt, tb, 1.5 * dt) << p.part.name;
+      for (size_t i = 1; i + 1 < blend_intervals; ++i)
+        EXPECT_NEAR((speed[i] - speed[i - 1]) / dt, v / tb, 0.03 * v / tb) << p.part.name;
+      k = e + 1;
+    }
+  }
+}
+
+TEST(WeldPlanner, UnreachableSeamsAreNamed) {
+  const RobotModel robot = RobotModel::load(test::repo("scenes/robots/aubo_i5.urdf"));
+  const PartSpec part = PartSpec::load(test::repo("scenes/parts/tube_on_plate.yaml"));
+  const WeldPlan far = plan_welds(part, planar_pose(0.95, 0.0, 0.0, 0.0), robot);
+  ASSERT_FALSE(far.ok());
+  EXPECT_NE(far.problems.front().find("seam 'front'"), std::string::npos) << far.problems.front();
+  EXPECT_NE(far.problems.front().find("unreachable"), std::string::npos);
+}
+
+TEST(Lspb, PaperLawAndFastestProfile) {
+  const Lspb a = Lspb::with_blend_fraction(0.05, 0.008, 0.025);
+  EXPECT_NEAR(a.duration, 0.05 / (0.008 * 0.975), 1e-12);
+  EXPECT_NEAR(a.blend, 0.025 * a.duration, 1e-12);
+  double s, sd, sdd;
+  a.at(a.duration, s, sd, sdd);
+  EXPECT_NEAR(s, 0.05, 1e-12);
+  a.at(a.duration / 2, s, sd, sdd);
+  EXPECT_NEAR(sd, 0.008, 1e-12);
+  for (double L : {0.01, 1.0, 3.0}) {
+    const Lspb b = Lspb::fastest(L, 2.0, 4.0);
+    double vmax = 0, amax = 0, last_v = 0;
+    for (double t = 0; t <= b.duration; t += 1e-4) {
+      b.at(t, s, sd, sdd);
+      vmax = std::max(vmax, sd);
+      amax = std::max(amax, std::abs(sdd));
+      last_v = sd;
+    }
+    b.at(b.duration, s, sd, sdd);
+    EXPECT_NEAR(s, L, 1e-12);
+    EXPECT_LE(vmax, 2.0 + 1e-12);
+    EXPECT_LE(amax, 4.0 + 1e-12);
+    EXPECT_NEAR(last_v, 0.0, 1e-3);
+  }
+}
+
+TEST(TorchFrame, FollowsTheDesignConvention) {
+  const Vec3 d(1, 0, 0), n(0, 0, 1), m(0, -1, 0);
+  // 45 deg work, no travel: the axis bisects the fillet, pointing into the joint.
+  Mat3 R = torch_orientation(d, n, m, deg2rad(45), 0.0, 0.0);
+  EXPECT_TRUE(R.col(2).isApprox(Vec3(0, 1, -1).normalized(), 1e-12));
+  EXPECT_TRUE(R.col(0).isApprox(d, 1e-12));
+  EXPECT_NEAR(R.determinant(), 1.0, 1e-12);
+  // Push: the axis leans along the travel direction.
+  R = torch_orientation(d, n, m, deg2rad(45), deg2rad(10), deg2rad(30));
+  EXPECT_NEAR(R.col(2).dot(d), std::sin(deg2rad(10)), 1e-12);
+  double w, t;
+  torch_angles(R, d, n, m, w, t);
+  EXPECT_NEAR(rad2deg(w), 45.0, 1e-9);
+  EXPECT_NEAR(rad2deg(t), 10.0, 1e-9);
+}
+
+}  // namespace
+}  // namespace weldtwin
