@@ -3,7 +3,9 @@
 
 #include <random>
 
+#include "core/part_spec.hpp"
 #include "planning/ik_aubo.hpp"
+#include "planning/weld_planner.hpp"
 
 namespace weldtwin {
 namespace {
@@ -28,6 +30,25 @@ void BM_IkSolveAll(benchmark::State& state) {
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
 }
 BENCHMARK(BM_IkSolveAll);
+
+// Planning a whole part at its cell's pose: roll and branch choice, IK of every 200 Hz sample, limit checks.
+void BM_PlanPart(benchmark::State& state) {
+  static const char* parts[] = {"tube_on_plate", "round_on_plate", "tube_tee"};
+  const std::string root = WELDTWIN_SOURCE_DIR;
+  const RobotModel robot = RobotModel::load(root + "/scenes/robots/aubo_i5.urdf");
+  const PartSpec part = PartSpec::load(root + "/scenes/parts/" + parts[state.range(0)] + ".yaml");
+  const Iso3 pose = planar_pose(0.46, 0.05, 0.0, 0.4);
+  size_t samples = 0;
+  bool ok = true;
+  for (auto _ : state) {
+    const WeldPlan plan = plan_welds(part, pose, robot);
+    samples = plan.samples.size();
+    ok = ok && plan.ok();
+  }
+  state.SetLabel(std::string(parts[state.range(0)]) + (ok ? "" : " (NOT PLANNED)"));
+  state.counters["samples"] = static_cast<double>(samples);
+}
+BENCHMARK(BM_PlanPart)->DenseRange(0, 2)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace weldtwin

@@ -114,6 +114,18 @@ Iso3 AuboIk::fk(const JointVector& q) const {
 
 std::array<IkSolution, 8> AuboIk::solve(const Iso3& T_base_tip, double q6_reference) const {
   std::array<IkSolution, 8> out;
+  solve_into(T_base_tip, q6_reference, -1, out);
+  return out;
+}
+
+IkSolution AuboIk::solve_branch(const Iso3& T_base_tip, int branch, double q6_reference) const {
+  std::array<IkSolution, 8> out;
+  solve_into(T_base_tip, q6_reference, branch, out);
+  return out[static_cast<size_t>(branch)];
+}
+
+void AuboIk::solve_into(const Iso3& T_base_tip, double q6_reference, int only,
+                        std::array<IkSolution, 8>& out) const {
   const Mat3& R = T_base_tip.linear();
   // The wrist centre, where the J5 and J6 axes meet: fixed in the tip frame.
   const Vec3 W = T_base_tip * w_tip_;
@@ -123,11 +135,11 @@ std::array<IkSolution, 8> AuboIk::solve(const Iso3& T_base_tip, double q6_refere
   double k0, kc, ks, q1s[2], shoulder_sine = 0.0, wrist_sine = 0.0;
   bool shoulder_singular = false, wrist_singular = false;
   rotated_dot(w_[0], wp_, W - r_[0], k0, kc, ks);
-  if (!cos_sin_equation(kc, ks, wp_.dot(W0_ - r_[0]) - k0, q1s, &shoulder_singular, &shoulder_sine))
-    return out;
+  if (!cos_sin_equation(kc, ks, wp_.dot(W0_ - r_[0]) - k0, q1s, &shoulder_singular, &shoulder_sine)) return;
 
   const Vec3 w6_now = R * M_.linear().transpose() * w_[5];  // J6 axis at the target
   for (int i1 = 0; i1 < 2; ++i1) {
+    if (only >= 0 && i1 != only >> 2) continue;
     const double q1 = q1s[i1];
     const Mat3 R1 = rot(w_[0], q1);
     // J5: (Rot(w5, q5) w6) . wp = (R1 wp) . w6_now.
@@ -137,6 +149,7 @@ std::array<IkSolution, 8> AuboIk::solve(const Iso3& T_base_tip, double q6_refere
       continue;
     const Mat3 N = R1.transpose() * R * M_.linear().transpose();  // = R234 R5 R6
     for (int i5 = 0; i5 < 2; ++i5) {
+      if (only >= 0 && i5 != ((only >> 1) & 1)) continue;
       const double q5 = q5s[i5];
       const Mat3 R5 = rot(w_[4], q5);
       // J6 turns N^T wp onto R5^T wp; at the wrist singularity both lie on the J6 axis and J6 is free.
@@ -157,6 +170,7 @@ std::array<IkSolution, 8> AuboIk::solve(const Iso3& T_base_tip, double q6_refere
       kappa = std::clamp(kappa, -1.0, 1.0);
       const bool elbow_singular = 1.0 - std::abs(kappa) < kNearSingular;
       for (int i3 = 0; i3 < 2; ++i3) {
+        if (only >= 0 && i3 != (only & 1)) continue;
         const double q3 = elbow_theta0_ + (i3 == 0 ? -1.0 : 1.0) * std::acos(kappa);
         const Vec3 p3 = r_[2] + rot(w3, q3) * (r_[3] - r_[2]);
         double q2 = 0.0;
@@ -175,7 +189,6 @@ std::array<IkSolution, 8> AuboIk::solve(const Iso3& T_base_tip, double q6_refere
       }
     }
   }
-  return out;
 }
 
 void AuboIk::polish(const Iso3& T_target, JointVector& q) const {

@@ -32,6 +32,9 @@ class AuboIk {
   /// Every solution for T_base_tip. `q6_reference` is J6 where it is free (at the wrist singularity).
   std::array<IkSolution, 8> solve(const Iso3& T_base_tip, double q6_reference = 0.0) const;
 
+  /// One branch only (0..7), about a quarter of the work of solve().
+  IkSolution solve_branch(const Iso3& T_base_tip, int branch, double q6_reference = 0.0) const;
+
   /// The valid solution within limits nearest to `q_near` (max-norm over joints); false if there is none.
   bool nearest(const Iso3& T_base_tip, const JointVector& q_near, JointVector& q) const;
 
@@ -39,6 +42,8 @@ class AuboIk {
   Iso3 fk(const JointVector& q) const;
 
  private:
+  void solve_into(const Iso3& T_base_tip, double q6_reference, int only,
+                  std::array<IkSolution, 8>& out) const;
   void polish(const Iso3& T_target, JointVector& q) const;
 
   std::array<Vec3, 6> w_;      ///< joint axes at home, base frame

@@ -77,7 +77,7 @@ class Builder {
     } else {
       for (double r = -kPi; r < kPi - 1e-9; r += set_.roll_step_rad) rolls.push_back(r);
     }
-    const int stations = std::max(8, static_cast<int>((s1 - s0) / 0.005));
+    const int stations = std::max(6, static_cast<int>((s1 - s0) / 0.008));
     Choice best;
     for (double roll : rolls) {
       std::array<double, 8> worst;
@@ -99,6 +99,10 @@ class Builder {
           if (s.valid) last[static_cast<size_t>(b)] = s.q;
           if (k < 0) first[static_cast<size_t>(b)] = s.q;
         }
+        // Stop on this roll once no branch can still win.
+        if (std::all_of(worst.begin(), worst.end(),
+                        [&](double m) { return m < 0.0 || m + 0.05 <= best.margin; }))
+          break;
       }
       for (int b = 0; b < 8; ++b) {
         const double m = worst[static_cast<size_t>(b)] + (b == prefer_branch ? 0.05 : 0.0);
@@ -152,7 +156,7 @@ class Builder {
   bool add(const Iso3& T, int seam, Phase phase, const std::string& what) {
     const bool arc = phase == Phase::kWeld || phase == Phase::kCorner;
     // The IK branch chosen for the seam; no hopping to a neighbouring branch near a singularity.
-    const IkSolution sol = ik_.solve(T, q_[5])[static_cast<size_t>(branch_)];
+    const IkSolution sol = ik_.solve_branch(T, branch_, q_[5]);
     if (!sol.valid || !sol.within_limits) {
       problem(what + ": a pose on the path is out of reach");
       return false;
@@ -317,7 +321,7 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
       if (!c.ok && seam.kind == Seam::Kind::kArc && !seam.torch_roll_rad) {
         // The longest stretch from s0 that some roll can weld, by bisection on its end.
         double lo = s0, hi = g.length;
-        for (int it = 0; it < 12; ++it) {
+        for (int it = 0; it < 9; ++it) {
           const double mid = 0.5 * (lo + hi);
           const Choice cm = b.choose(g, s0, mid, seam.torch_roll_rad, branch);
           if (cm.ok) {

@@ -21,7 +21,7 @@ struct PlanSetting {
   double approach_speed_m_s = 0.02;    ///< approach and departure speed
   double approach_accel_m_s2 = 0.1;    ///< and acceleration
   double limit_fraction = 0.5;         ///< transits and corners use this fraction of the joint limits
-  double roll_step_rad = deg2rad(15);  ///< candidate free rolls are tried at this spacing
+  double roll_step_rad = deg2rad(30);  ///< candidate free rolls are tried at this spacing
   double corner_tolerance_m = 1e-3;    ///< seams closer than this at end/start are welded through the corner
   double min_margin_rad = deg2rad(3);  ///< joint-limit margin a free-roll choice must keep
   double min_singularity_sine = 0.08;  ///< how far (IkSolution margins) a choice must stay from singularities

@@ -6,34 +6,10 @@
 
 #include "core/error.hpp"
 #include "core/yaml_util.hpp"
+#include "planning/lspb.hpp"
 
 namespace weldtwin {
 namespace {
-
-// LSPB from 0 to 1 over duration T with blend time tb = f T (DESIGN.md): peak speed v = 1 / (T - tb),
-// blend acceleration a = v / tb. Returns position, velocity and acceleration of the unit move at time t.
-void lspb_unit(double t, double T, double f, double& s, double& sd, double& sdd) {
-  const double tb = f * T, v = 1.0 / (T - tb), a = v / tb;
-  if (t <= 0.0) {
-    s = sd = sdd = 0.0;
-  } else if (t < tb) {
-    s = 0.5 * a * t * t;
-    sd = a * t;
-    sdd = a;
-  } else if (t <= T - tb) {
-    s = 0.5 * a * tb * tb + v * (t - tb);
-    sd = v;
-    sdd = 0.0;
-  } else if (t < T) {
-    const double r = T - t;
-    s = 1.0 - 0.5 * a * r * r;
-    sd = a * r;
-    sdd = -a;
-  } else {
-    s = 1.0;
-    sd = sdd = 0.0;
-  }
-}
 
 JointVector degrees(const YAML::Node& node, const std::string& key, const std::string& file) {
   auto v = yaml::numbers(node, key, 6, file);
@@ -117,8 +93,11 @@ JointSample SweepProgram::at(double t) const {
   const double t0 = k == 0 ? 0.0 : end_times_[k - 1];
   const JointVector& from = k == 0 ? start_ : moves_[k - 1].to;
   const JointVector delta = moves_[k].to - from;
+  // The unit move 0 -> 1 in the move's time, blends a fraction of it at both ends (planning/lspb.hpp).
+  const double T = moves_[k].duration_s;
+  const Lspb law = Lspb::with_blend_fraction(1.0, 1.0 / (T * (1.0 - blend_)), blend_);
   double s, sd, sdd;
-  lspb_unit(t - t0, moves_[k].duration_s, blend_, s, sd, sdd);
+  law.at(t - t0, s, sd, sdd);
   return {from + s * delta, sd * delta, sdd * delta};
 }
 

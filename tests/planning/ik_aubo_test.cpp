@@ -113,6 +113,23 @@ TEST(AuboIk, WorksAtAndNearTheSingularities) {
   EXPECT_EQ(missed, 0);
 }
 
+TEST(AuboIk, OneBranchEqualsThatBranchOfAll) {
+  const RobotModel robot = RobotModel::load(test::repo("scenes/robots/aubo_i5.urdf"));
+  const AuboIk ik(robot, "tcp");
+  std::mt19937_64 rng(9);
+  for (int k = 0; k < 2000; ++k) {
+    const Iso3 T = ik.fk(test::random_q(robot, rng));
+    const auto all = ik.solve(T, 0.2);
+    for (int b = 0; b < 8; ++b) {
+      const IkSolution one = ik.solve_branch(T, b, 0.2);
+      ASSERT_EQ(one.valid, all[static_cast<size_t>(b)].valid);
+      if (one.valid) {
+        EXPECT_EQ(one.q, all[static_cast<size_t>(b)].q);
+      }
+    }
+  }
+}
+
 TEST(AuboIk, UnreachablePosesHaveNoSolution) {
   const RobotModel robot = RobotModel::load(test::repo("scenes/robots/aubo_i5.urdf"));
   const AuboIk ik(robot, "flange");
