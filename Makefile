@@ -28,9 +28,11 @@ test: build
 bench: build
 	$(BUILD)/benchmarks/weldtwin_bench --benchmark_min_time=0.5
 
-# What the default sweep sees of each part at 50 random layouts (a few minutes).
+# What the default sweep sees of each part at 50 random layouts, and how often each can be welded (minutes).
 coverage: build
 	$(BUILD)/benchmarks/sweep_coverage --layouts 50 scenes/cells/default.yaml scenes/cells/round_on_plate.yaml \
+	  scenes/cells/tube_tee.yaml
+	$(BUILD)/benchmarks/plan_survey --layouts 100 scenes/cells/default.yaml scenes/cells/round_on_plate.yaml \
 	  scenes/cells/tube_tee.yaml
 
 format:

@@ -31,6 +31,28 @@ void BM_IkSolveAll(benchmark::State& state) {
 }
 BENCHMARK(BM_IkSolveAll);
 
+// One branch, as the planner asks for it at every 200 Hz sample.
+void BM_IkSolveBranch(benchmark::State& state) {
+  static const RobotModel robot =
+      RobotModel::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/robots/aubo_i5.urdf");
+  const AuboIk ik(robot, "tcp");
+  std::mt19937_64 rng(3);
+  std::vector<Iso3> poses;
+  for (int k = 0; k < 1024; ++k) {
+    JointVector q;
+    for (int j = 0; j < 6; ++j) q[j] = std::uniform_real_distribution<double>(-3.0, 3.0)(rng);
+    poses.push_back(ik.fk(q));
+  }
+  size_t i = 0, valid = 0;
+  for (auto _ : state) {
+    valid += ik.solve_branch(poses[i & 1023], static_cast<int>(i & 7)).valid;
+    ++i;
+  }
+  benchmark::DoNotOptimize(valid);
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
+}
+BENCHMARK(BM_IkSolveBranch);
+
 // Planning a whole part at its cell's pose: roll and branch choice, IK of every 200 Hz sample, limit checks.
 void BM_PlanPart(benchmark::State& state) {
   static const char* parts[] = {"tube_on_plate", "round_on_plate", "tube_tee"};
