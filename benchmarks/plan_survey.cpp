@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "benchmarks/survey_args.hpp"
 #include "core/error.hpp"
 #include "planning/weld_planner.hpp"
 #include "sim/cell_layout.hpp"
@@ -16,21 +17,11 @@
 using namespace weldtwin;
 
 int main(int argc, char** argv) {
-  int layouts = 100;
-  uint64_t seed0 = 1;
-  std::vector<std::string> cells;
-  for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--layouts") && i + 1 < argc) {
-      layouts = std::atoi(argv[++i]);
-    } else if (!std::strcmp(argv[i], "--seed") && i + 1 < argc) {
-      seed0 = std::strtoull(argv[++i], nullptr, 10);
-    } else if (!std::strcmp(argv[i], "--help")) {
-      std::printf("usage: plan_survey [--layouts N] [--seed S] CELL.yaml...\n");
-      return 0;
-    } else {
-      cells.push_back(argv[i]);
-    }
-  }
+  const SurveyArgs args(argc, argv, "plan_survey", 100);
+  if (args.help) return 0;
+  const int layouts = args.layouts;
+  const uint64_t seed0 = args.seed;
+  const std::vector<std::string>& cells = args.cells;
   try {
     for (const std::string& file : cells) {
       const CellSpec spec = CellSpec::load(file);

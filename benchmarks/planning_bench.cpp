@@ -10,10 +10,8 @@
 namespace weldtwin {
 namespace {
 
-void BM_IkSolveAll(benchmark::State& state) {
-  static const RobotModel robot =
-      RobotModel::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/robots/aubo_i5.urdf");
-  const AuboIk ik(robot, "tcp");
+// TCP poses of 1024 seeded random configurations.
+std::vector<Iso3> random_poses(const AuboIk& ik) {
   std::mt19937_64 rng(3);
   std::vector<Iso3> poses;
   for (int k = 0; k < 1024; ++k) {
@@ -21,6 +19,14 @@ void BM_IkSolveAll(benchmark::State& state) {
     for (int j = 0; j < 6; ++j) q[j] = std::uniform_real_distribution<double>(-3.0, 3.0)(rng);
     poses.push_back(ik.fk(q));
   }
+  return poses;
+}
+
+void BM_IkSolveAll(benchmark::State& state) {
+  static const RobotModel robot =
+      RobotModel::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/robots/aubo_i5.urdf");
+  const AuboIk ik(robot, "tcp");
+  const std::vector<Iso3> poses = random_poses(ik);
   size_t i = 0, valid = 0;
   for (auto _ : state) {
     const auto sols = ik.solve(poses[i++ & 1023]);
@@ -36,13 +42,7 @@ void BM_IkSolveBranch(benchmark::State& state) {
   static const RobotModel robot =
       RobotModel::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/robots/aubo_i5.urdf");
   const AuboIk ik(robot, "tcp");
-  std::mt19937_64 rng(3);
-  std::vector<Iso3> poses;
-  for (int k = 0; k < 1024; ++k) {
-    JointVector q;
-    for (int j = 0; j < 6; ++j) q[j] = std::uniform_real_distribution<double>(-3.0, 3.0)(rng);
-    poses.push_back(ik.fk(q));
-  }
+  const std::vector<Iso3> poses = random_poses(ik);
   size_t i = 0, valid = 0;
   for (auto _ : state) {
     valid += ik.solve_branch(poses[i & 1023], static_cast<int>(i & 7)).valid;

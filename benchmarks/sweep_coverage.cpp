@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "benchmarks/survey_args.hpp"
 #include "core/error.hpp"
 #include "perception/scan_assembly.hpp"
 #include "sim/seam_coverage.hpp"
@@ -26,21 +27,11 @@ double percentile(std::vector<double> v, double p) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  int layouts = 20;
-  uint64_t seed0 = 1;
-  std::vector<std::string> cells;
-  for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--layouts") && i + 1 < argc) {
-      layouts = std::atoi(argv[++i]);
-    } else if (!std::strcmp(argv[i], "--seed") && i + 1 < argc) {
-      seed0 = std::strtoull(argv[++i], nullptr, 10);
-    } else if (!std::strcmp(argv[i], "--help")) {
-      std::printf("usage: sweep_coverage [--layouts N] [--seed S] CELL.yaml...\n");
-      return 0;
-    } else {
-      cells.push_back(argv[i]);
-    }
-  }
+  const SurveyArgs args(argc, argv, "sweep_coverage", 20);
+  if (args.help) return 0;
+  const int layouts = args.layouts;
+  const uint64_t seed0 = args.seed;
+  const std::vector<std::string>& cells = args.cells;
   try {
     for (const std::string& file : cells) {
       const CellSpec spec = CellSpec::load(file);

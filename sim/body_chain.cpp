@@ -31,6 +31,19 @@ BodyChain::BodyChain(const mjModel* m, int body, const std::vector<int>& qpos_ad
   std::reverse(links_.begin(), links_.end());
 }
 
+void BodyChain::turn(const Link& l, const JointVector& q, Mat3& R) {
+  // R * Rot(axis, q): about z (every joint of our arm) on two columns only.
+  if (l.q_index < 0) return;
+  const double c = std::cos(q[l.q_index]), s = std::sin(q[l.q_index]);
+  if (l.axis_is_z) {
+    const Vec3 x = R.col(0), y = R.col(1);
+    R.col(0) = c * x + s * y;
+    R.col(1) = c * y - s * x;
+  } else {
+    R = R * Eigen::AngleAxisd(q[l.q_index], l.axis).toRotationMatrix();
+  }
+}
+
 Iso3 BodyChain::pose(const JointVector& q) const {
   // Runs once per LiDAR sample: plain 3x3 algebra, and a rotation about z done on two columns.
   Mat3 R = Mat3::Identity();
@@ -38,15 +51,7 @@ Iso3 BodyChain::pose(const JointVector& q) const {
   for (const Link& l : links_) {
     p += R * l.T_parent_body.translation();
     R = R * l.T_parent_body.linear();
-    if (l.q_index < 0) continue;
-    const double c = std::cos(q[l.q_index]), s = std::sin(q[l.q_index]);
-    if (l.axis_is_z) {
-      const Vec3 x = R.col(0), y = R.col(1);
-      R.col(0) = c * x + s * y;
-      R.col(1) = c * y - s * x;
-    } else {
-      R = R * Eigen::AngleAxisd(q[l.q_index], l.axis).toRotationMatrix();
-    }
+    turn(l, q, R);
   }
   return make_transform(p, R);
 }
@@ -80,16 +85,7 @@ Iso3 BodyChain::pose(const JointVector& q, Cache& cache) const {
     // S_k = A_k Rot_k(q) S_{k+1}
     const Link& l = links_[k];
     Mat3 R = l.T_parent_body.linear();
-    if (l.q_index >= 0) {
-      const double c = std::cos(q[l.q_index]), s = std::sin(q[l.q_index]);
-      if (l.axis_is_z) {
-        const Vec3 x = R.col(0), y = R.col(1);
-        R.col(0) = c * x + s * y;
-        R.col(1) = c * y - s * x;
-      } else {
-        R = R * Eigen::AngleAxisd(q[l.q_index], l.axis).toRotationMatrix();
-      }
-    }
+    turn(l, q, R);
     cache.p[k] = l.T_parent_body.translation() + R * cache.p[k + 1];
     cache.R[k] = R * cache.R[k + 1];
   }

@@ -38,6 +38,8 @@ class BodyChain {
     bool axis_is_z = false;
   };
   std::vector<Link> links_;  ///< root first
+  /// R := R * Rot(l.axis, q[l.q_index]) for a jointed link.
+  static void turn(const Link& l, const JointVector& q, Mat3& R);
 };
 
 }  // namespace weldtwin
