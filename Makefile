@@ -3,6 +3,8 @@ BUILD ?= build
 JOBS  ?= $(shell nproc)
 OUT   ?= out
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
+# ccache: paths relative to the checkout, so that clones elsewhere share the cache.
+export CCACHE_BASEDIR := $(CURDIR)
 
 .PHONY: setup configure build run test bench coverage format clean
 

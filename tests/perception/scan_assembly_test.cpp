@@ -65,7 +65,7 @@ TEST(ScanAssembly, JointsLoggedAt200HzStayWithinTheInterpolationBound) {
     worst = std::max(worst, err);
     worst_ratio = std::max(worst_ratio, err / bound);
   }
-  std::printf("joints at %.0f Hz: worst difference %.2e m, %.0f %% of its bound (joint bound %.1e rad)\n", hz,
+  std::printf("joints at %.0f Hz: worst difference %.2e m, %.1f %% of its bound (joint bound %.1e rad)\n", hz,
               worst, 100 * worst_ratio, dq);
   EXPECT_GT(worst, 1e-9);  // the effect is real, not zero by accident
 }
