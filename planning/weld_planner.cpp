@@ -70,14 +70,14 @@ class Builder {
   // Best roll and branch for the stretch [s0, s1] of a seam, including its approach pose. A fixed roll is
   // the only candidate; `prefer_branch` wins ties (a corner can then be welded through).
   Choice choose(const SeamGeometry& g, double s0, double s1, std::optional<double> fixed_roll,
-                int prefer_branch) const {
+                int prefer_branch, bool any_will_do = false) const {
     std::vector<double> rolls;
     if (fixed_roll) {
       rolls.push_back(*fixed_roll);
     } else {
       for (double r = -kPi; r < kPi - 1e-9; r += set_.roll_step_rad) rolls.push_back(r);
     }
-    const int stations = std::max(6, static_cast<int>((s1 - s0) / 0.008));
+    const int stations = std::max(6, static_cast<int>((s1 - s0) / 0.012));
     Choice best;
     for (double roll : rolls) {
       std::array<double, 8> worst;
@@ -109,6 +109,7 @@ class Builder {
         if (worst[static_cast<size_t>(b)] < 0 || m <= best.margin) continue;
         best = {true, roll, b, m, first[static_cast<size_t>(b)]};
       }
+      if (any_will_do && best.ok) return best;  // feasibility is all the caller asks
     }
     return best;
   }
@@ -295,6 +296,7 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
   plan.T_flange_tcp = robot.forward_kinematics(zero, robot.require_link("flange")).inverse() *
                       robot.forward_kinematics(zero, robot.require_link("tcp"));
   Builder b(robot, setting, plan);
+  plan.samples.reserve(32768);
   plan.samples.push_back({0.0, setting.home, b.ik().fk(setting.home), -1, false, Phase::kTransit});
 
   bool at_corner = false;  // the TCP stands at the start of the next seam with the arc on
@@ -321,17 +323,16 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
       if (!c.ok && seam.kind == Seam::Kind::kArc && !seam.torch_roll_rad) {
         // The longest stretch from s0 that some roll can weld, by bisection on its end.
         double lo = s0, hi = g.length;
-        for (int it = 0; it < 9; ++it) {
+        for (int it = 0; it < 7; ++it) {
           const double mid = 0.5 * (lo + hi);
-          const Choice cm = b.choose(g, s0, mid, seam.torch_roll_rad, branch);
-          if (cm.ok) {
+          if (b.choose(g, s0, mid, seam.torch_roll_rad, branch, true).ok) {
             lo = mid;
-            c = cm;
           } else {
             hi = mid;
           }
         }
         s1 = lo;
+        c = b.choose(g, s0, s1, seam.torch_roll_rad, branch);
         // Leave no stub too short to blend at the weld speed: end this piece earlier instead.
         constexpr double kMinPiece = 0.025;
         if (g.length - s1 < kMinPiece && g.length - kMinPiece - s0 >= 0.01) {
@@ -358,8 +359,8 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
       for (size_t k = 0; k < n; ++k) {
         const double a = g.length * static_cast<double>(k) / static_cast<double>(n);
         const double e = g.length * static_cast<double>(k + 1) / static_cast<double>(n);
+        if (!b.choose(g, a, e, seam.torch_roll_rad, branch, true).ok) break;
         const Choice c = b.choose(g, a, e, seam.torch_roll_rad, branch);
-        if (!c.ok) break;
         equal.emplace_back(a, e);
         equal_choices.push_back(c);
       }
@@ -468,27 +469,33 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
 
 std::vector<std::string> check_joint_limits(const std::vector<PlanSample>& samples, const RobotModel& robot,
                                             double sample_hz) {
+  return check_joint_limits(samples.data(), samples.size(), robot, sample_hz);
+}
+
+std::vector<std::string> check_joint_limits(const PlanSample* first, size_t count, const RobotModel& robot,
+                                            double sample_hz) {
+  const auto samples = [&](size_t k) -> const PlanSample& { return first[k]; };
   std::vector<std::string> out;
   double worst_v[6] = {0}, worst_a[6] = {0};
   int at_v[6] = {0}, at_a[6] = {0};
-  for (size_t k = 0; k < samples.size(); ++k) {
-    const JointVector& q = samples[k].q;
+  for (size_t k = 0; k < count; ++k) {
+    const JointVector& q = samples(k).q;
     for (int j = 0; j < 6; ++j)
       if (q[j] < robot.lower()[j] || q[j] > robot.upper()[j]) {
         out.push_back("joint " + std::to_string(j + 1) +
-                      " leaves its limits at t = " + std::to_string(samples[k].t_s) + " s");
+                      " leaves its limits at t = " + std::to_string(samples(k).t_s) + " s");
         return out;
       }
-    if (k + 1 < samples.size()) {
-      const JointVector v = (samples[k + 1].q - q) * sample_hz;
+    if (k + 1 < count) {
+      const JointVector v = (samples(k + 1).q - q) * sample_hz;
       for (int j = 0; j < 6; ++j)
         if (std::abs(v[j]) > worst_v[j]) {
           worst_v[j] = std::abs(v[j]);
           at_v[j] = static_cast<int>(k);
         }
     }
-    if (k > 0 && k + 1 < samples.size()) {
-      const JointVector a = (samples[k + 1].q - 2.0 * q + samples[k - 1].q) * sample_hz * sample_hz;
+    if (k > 0 && k + 1 < count) {
+      const JointVector a = (samples(k + 1).q - 2.0 * q + samples(k - 1).q) * sample_hz * sample_hz;
       for (int j = 0; j < 6; ++j)
         if (std::abs(a[j]) > worst_a[j]) {
           worst_a[j] = std::abs(a[j]);
@@ -500,11 +507,11 @@ std::vector<std::string> check_joint_limits(const std::vector<PlanSample>& sampl
   for (int j = 0; j < 6; ++j) {
     if (worst_v[j] > robot.max_velocity()[j] * 1.001)
       out.push_back("joint " + std::to_string(j + 1) + " needs " + std::to_string(worst_v[j]) +
-                    " rad/s at t = " + std::to_string(samples[static_cast<size_t>(at_v[j])].t_s) +
+                    " rad/s at t = " + std::to_string(samples(static_cast<size_t>(at_v[j])).t_s) +
                     " s (limit " + std::to_string(robot.max_velocity()[j]) + ")");
     if (worst_a[j] > robot.max_acceleration()[j] * 1.001)
       out.push_back("joint " + std::to_string(j + 1) + " needs " + std::to_string(worst_a[j]) +
-                    " rad/s^2 at t = " + std::to_string(samples[static_cast<size_t>(at_a[j])].t_s) +
+                    " rad/s^2 at t = " + std::to_string(samples(static_cast<size_t>(at_a[j])).t_s) +
                     " s (limit " + std::to_string(robot.max_acceleration()[j]) + ")");
   }
   return out;

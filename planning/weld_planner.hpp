@@ -66,5 +66,7 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
 /// returns one line per violated joint and kind (empty when within limits).
 std::vector<std::string> check_joint_limits(const std::vector<PlanSample>& samples, const RobotModel& robot,
                                             double sample_hz);
+std::vector<std::string> check_joint_limits(const PlanSample* first, size_t count, const RobotModel& robot,
+                                            double sample_hz);
 
 }  // namespace weldtwin

@@ -34,8 +34,8 @@ TEST(MujocoWorld, UrdfKinematicsEqualMujocoBodyPosesFor1000Configurations) {
       worst_r = std::max(worst_r, (T_mj.linear() - fk[l].linear()).cwiseAbs().maxCoeff());
     }
   }
-  std::printf("URDF vs MuJoCo over 1000 configurations: worst position %.1e m, rotation entry %.1e\n", worst_p,
-              worst_r);
+  std::printf("URDF vs MuJoCo over 1000 configurations: worst position %.1e m, rotation entry %.1e\n",
+              worst_p, worst_r);
   EXPECT_LT(worst_p, 1e-9);
   EXPECT_LT(worst_r, 1e-9);
 }
