@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <exception>
 
+#include "app/localize_command.hpp"
 #include "app/plan_command.hpp"
 #include "app/scan_command.hpp"
 #include "core/error.hpp"
@@ -33,6 +34,17 @@ int main(int argc, char** argv) {
   sc->add_option("--threads", scan.threads, "ray-casting threads (default: all cores)");
   sc->add_flag("-q,--quiet", scan.quiet, "no progress lines");
 
+  weldtwin::LocalizeCommand loc;
+  std::string roi;
+  CLI::App* lc =
+      app.add_subcommand("localize", "Find the part (its mesh) in a base-frame cloud of a table scene");
+  lc->add_option("--model", loc.model, "part mesh (STL, PLY, OBJ), part frame")->required();
+  lc->add_option("--scan", loc.scan, "cloud (PCD or PLY), base frame")->required();
+  lc->add_option("--roi", roi, "optional crop box xmin,ymin,zmin,xmax,ymax,zmax [m] (not needed)");
+  lc->add_option("--units", loc.units, "mesh units: m (default) or mm");
+  lc->add_option("--out", loc.out, "pose JSON to write")->required();
+  lc->add_flag("-q,--quiet", loc.quiet, "no progress line");
+
   weldtwin::PlanCommand plan;
   CLI::App* pc =
       app.add_subcommand("plan", "Plan the welds of a part at a pose: timed torch path and 200 Hz joints");
@@ -61,6 +73,18 @@ int main(int argc, char** argv) {
       return weldtwin::run_scan(scan);
     }
     if (pc->parsed()) return weldtwin::run_plan(plan);
+    if (lc->parsed()) {
+      for (size_t a = 0, b; a < roi.size(); a = b + 1) {
+        b = roi.find(',', a);
+        if (b == std::string::npos) b = roi.size();
+        try {
+          loc.roi.push_back(std::stod(roi.substr(a, b - a)));
+        } catch (const std::exception&) {
+          throw weldtwin::InputError("--roi: '" + roi + "' is not six numbers");
+        }
+      }
+      return weldtwin::run_localize(loc);
+    }
   } catch (const weldtwin::InputError& e) {
     std::fprintf(stderr, "weldtwin: %s\n", e.what());
     return 2;

@@ -1,0 +1,63 @@
+#include "app/localize_command.hpp"
+
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "core/error.hpp"
+#include "perception/cloud_io.hpp"
+#include "perception/localizer.hpp"
+#include "perception/mesh_io.hpp"
+
+namespace weldtwin {
+
+int run_localize(const LocalizeCommand& cmd) {
+  if (cmd.units != "m" && cmd.units != "mm") throw input_error(cmd.model, "--units must be m or mm");
+  const Mesh mesh = load_mesh(cmd.model, cmd.units == "mm" ? 1e-3 : 1.0);
+  size_t dropped = 0;
+  std::vector<Vec3> cloud = read_cloud(cmd.scan, &dropped);
+  if (cloud.empty()) throw input_error(cmd.scan, "the cloud has no finite points");
+  if (!cmd.roi.empty()) {
+    if (cmd.roi.size() != 6) throw input_error(cmd.scan, "--roi takes xmin,ymin,zmin,xmax,ymax,zmax");
+    std::vector<Vec3> kept;
+    for (const Vec3& p : cloud)
+      if (p.x() >= cmd.roi[0] && p.y() >= cmd.roi[1] && p.z() >= cmd.roi[2] && p.x() <= cmd.roi[3] &&
+          p.y() <= cmd.roi[4] && p.z() <= cmd.roi[5])
+        kept.push_back(p);
+    cloud.swap(kept);
+  }
+  const PoseEstimate pose = localize(cloud, mesh);
+
+  nlohmann::json out;
+  out["T_base_part"] = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r)
+    out["T_base_part"].push_back({pose.T_base_part.matrix()(r, 0), pose.T_base_part.matrix()(r, 1),
+                                  pose.T_base_part.matrix()(r, 2), pose.T_base_part.matrix()(r, 3)});
+  out["found"] = pose.found;
+  out["reason"] = pose.reason;
+  out["fitness"] = pose.fitness;
+  out["rmse_m"] = pose.rmse_m;
+  out["coverage"] = pose.coverage;
+  out["ambiguity"] = pose.ambiguity;
+  out["converged"] = pose.converged;
+  out["iterations"] = pose.iterations;
+  out["inliers"] = pose.inliers;
+  out["table_plane"] = {pose.table_plane[0], pose.table_plane[1], pose.table_plane[2], pose.table_plane[3]};
+  out["object_points"] = pose.object_points;
+  out["scan_points"] = cloud.size();
+  out["dropped_non_finite"] = dropped;
+  out["seconds"] = pose.seconds;
+  std::ofstream(cmd.out) << out.dump(1) << '\n';
+  if (!cmd.quiet)
+    std::fprintf(stderr,
+                 "localize: %s in %.2f s: fitness %.2f, rmse %.2f mm, coverage %.2f, ambiguity %.2f -> %s\n",
+                 pose.found ? "found" : "not found", pose.seconds, pose.fitness, 1e3 * pose.rmse_m,
+                 pose.coverage, pose.ambiguity, cmd.out.c_str());
+  if (!pose.found) {
+    std::fprintf(stderr, "weldtwin: %s: %s\n", cmd.scan.c_str(), pose.reason.c_str());
+    return 3;
+  }
+  return 0;
+}
+
+}  // namespace weldtwin

@@ -1,0 +1,73 @@
+#include "perception/mesh_io.hpp"
+
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+#include <assimp/Importer.hpp>
+#include <cmath>
+#include <filesystem>
+#include <random>
+
+#include "core/error.hpp"
+
+namespace weldtwin {
+
+Mesh load_mesh(const std::string& path, double scale) {
+  if (!std::filesystem::is_regular_file(path)) throw input_error(path, "no such mesh file");
+  if (std::filesystem::file_size(path) == 0) throw input_error(path, "empty mesh file");
+  Assimp::Importer importer;
+  const aiScene* scene = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices);
+  if (!scene || !scene->mRootNode)
+    throw input_error(path, std::string("cannot read the mesh: ") + importer.GetErrorString());
+  Mesh mesh;
+  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+    const aiMesh* am = scene->mMeshes[m];
+    const int base = static_cast<int>(mesh.vertices.size());
+    for (unsigned v = 0; v < am->mNumVertices; ++v) {
+      const aiVector3D& p = am->mVertices[v];
+      const Vec3 q = scale * Vec3(p.x, p.y, p.z);
+      if (!q.allFinite()) throw input_error(path, "mesh has a non-finite vertex");
+      mesh.vertices.push_back(q);
+    }
+    for (unsigned f = 0; f < am->mNumFaces; ++f) {
+      const aiFace& face = am->mFaces[f];
+      if (face.mNumIndices != 3) continue;
+      mesh.faces.emplace_back(base + static_cast<int>(face.mIndices[0]),
+                              base + static_cast<int>(face.mIndices[1]),
+                              base + static_cast<int>(face.mIndices[2]));
+    }
+  }
+  if (mesh.faces.empty()) throw input_error(path, "mesh has no triangles");
+  return mesh;
+}
+
+SurfaceSamples sample_surface(const Mesh& mesh, double spacing_m, double min_normal_z) {
+  SurfaceSamples out;
+  std::mt19937_64 rng(12345);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const double per_area = 1.0 / (spacing_m * spacing_m);
+  for (const auto& f : mesh.faces) {
+    const Vec3 &a = mesh.vertices[static_cast<size_t>(f[0])], &b = mesh.vertices[static_cast<size_t>(f[1])],
+               &c = mesh.vertices[static_cast<size_t>(f[2])];
+    const Vec3 cross = (b - a).cross(c - a);
+    const double area = 0.5 * cross.norm();
+    if (area < 1e-14) continue;
+    const Vec3 n = cross.normalized();
+    if (n.z() < min_normal_z) continue;
+    // Expected count area * density, the fraction drawn at random so small faces are not lost.
+    const double expected = area * per_area;
+    int count = static_cast<int>(expected);
+    if (u(rng) < expected - count) ++count;
+    for (int k = 0; k < count; ++k) {
+      double r1 = u(rng), r2 = u(rng);
+      if (r1 + r2 > 1.0) {
+        r1 = 1.0 - r1;
+        r2 = 1.0 - r2;
+      }
+      out.points.push_back(a + r1 * (b - a) + r2 * (c - a));
+      out.normals.push_back(n);
+    }
+  }
+  return out;
+}
+
+}  // namespace weldtwin

@@ -1,0 +1,31 @@
+// Part meshes (STL binary/ascii, PLY, OBJ) through Assimp, and sampling their surface for registration.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "core/geometry.hpp"
+
+namespace weldtwin {
+
+struct Mesh {
+  std::vector<Vec3> vertices;
+  std::vector<Eigen::Vector3i> faces;
+};
+
+/// Loads a mesh, scaled by `scale` (1 for metres, 1e-3 for a mesh in millimetres). Throws InputError naming
+/// the file for a missing, empty, malformed or non-finite mesh.
+Mesh load_mesh(const std::string& path, double scale = 1.0);
+
+struct SurfaceSamples {
+  std::vector<Vec3> points;
+  std::vector<Vec3> normals;  ///< outward unit normals of the faces the points lie on
+};
+
+/// Points spread over the faces at about one per `spacing_m` squared (deterministic), skipping faces whose
+/// outward normal points down more steeply than `min_normal_z` (the part's underside, which rests on the
+/// table).
+SurfaceSamples sample_surface(const Mesh& mesh, double spacing_m, double min_normal_z = -0.7);
+
+}  // namespace weldtwin
