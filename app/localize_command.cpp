@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.hpp"
+#include "core/part_spec.hpp"
 #include "perception/cloud_io.hpp"
 #include "perception/localizer.hpp"
 #include "perception/mesh_io.hpp"
@@ -26,7 +27,15 @@ int run_localize(const LocalizeCommand& cmd) {
         kept.push_back(p);
     cloud.swap(kept);
   }
-  const PoseEstimate pose = localize(cloud, mesh);
+  // Seam points from the part spec, when given: poses that weld the same place are not ambiguous.
+  std::vector<Vec3> seam_points;
+  if (!cmd.part.empty()) {
+    const PartSpec part = PartSpec::load(cmd.part);
+    for (const Seam& seam : part.seams)
+      for (int k = 0, n = static_cast<int>(seam.length_m() / 0.001) + 1; k <= n; ++k)
+        seam_points.push_back(seam.point_at(static_cast<double>(k) / n));
+  }
+  const PoseEstimate pose = localize(cloud, mesh, LocalizeSetting(), seam_points);
 
   nlohmann::json out;
   out["T_base_part"] = nlohmann::json::array();

@@ -11,6 +11,7 @@ struct LocalizeCommand {
   std::string scan;         ///< cloud (PCD, PLY), base frame
   std::vector<double> roi;  ///< empty, or xmin ymin zmin xmax ymax zmax [m]
   std::string units = "m";  ///< mesh units: m or mm
+  std::string part;         ///< optional part spec: its seams decide which symmetric poses are equivalent
   std::string out;
   bool quiet = false;
 };

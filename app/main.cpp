@@ -42,6 +42,8 @@ int main(int argc, char** argv) {
   lc->add_option("--scan", loc.scan, "cloud (PCD or PLY), base frame")->required();
   lc->add_option("--roi", roi, "optional crop box xmin,ymin,zmin,xmax,ymax,zmax [m] (not needed)");
   lc->add_option("--units", loc.units, "mesh units: m (default) or mm");
+  lc->add_option("--part", loc.part,
+                 "optional part spec: poses that put the seams on the same places are equivalent");
   lc->add_option("--out", loc.out, "pose JSON to write")->required();
   lc->add_flag("-q,--quiet", loc.quiet, "no progress line");
 

@@ -247,9 +247,22 @@ bool self_similar(const Model& model, const Iso3& D) {
   return n > 0 && sum / n < 0.0015;
 }
 
+// Whether D (part frame to part frame) maps every seam point within 1 mm of some seam point.
+bool same_seams(const std::vector<Vec3>& seam, const Iso3& D) {
+  if (seam.empty()) return false;
+  for (const Vec3& p : seam) {
+    const Vec3 q = D * p;
+    double best = 1e9;
+    for (const Vec3& r : seam) best = std::min(best, (q - r).squaredNorm());
+    if (best > 1e-6) return false;
+  }
+  return true;
+}
+
 }  // namespace
 
-PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, const LocalizeSetting& s) {
+PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, const LocalizeSetting& s,
+                      const std::vector<Vec3>& seam_points) {
   const auto t0 = std::chrono::steady_clock::now();
   PoseEstimate out;
   auto finish = [&](const std::string& reason) {
@@ -264,7 +277,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   for (const Vec3& v : mesh.vertices) min_z = std::min(min_z, v.z());
   Mesh rest = mesh;
   for (Vec3& v : rest.vertices) v.z() -= min_z;
-  model.samples = sample_surface(rest, s.model_spacing_m);
+  model.samples = externally_visible(rest, sample_surface(rest, s.model_spacing_m));
   if (model.samples.points.size() < 50) return finish("the model mesh is too small to sample");
   Cloud::Ptr model_cloud = to_cloud(model.samples.points);
   model.tree.setInputCloud(model_cloud);
@@ -376,8 +389,12 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
     const IcpResult r = icp(scan, model, T_table_part.inverse(), s);
     refined.push_back({r.P, r, score(scan, scan_tree, model, r.P, s)});
   }
+  // Rank by support that counts both ways: scan points explained by the model (inliers) times the share of
+  // the model's visible surface the scan confirms (coverage). A clamp can lend inliers to a wrong pose, but
+  // it rarely shows the faces that pose predicts.
+  auto support = [](const Score& sc) { return sc.inliers * sc.coverage; };
   std::sort(refined.begin(), refined.end(),
-            [](const Refined& a, const Refined& b) { return a.score.inliers > b.score.inliers; });
+            [&](const Refined& a, const Refined& b) { return support(a.score) > support(b.score); });
   if (refined.empty()) return finish("part not found");
   const Refined& best = refined.front();
 
@@ -386,8 +403,12 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   for (size_t k = 1; k < refined.size(); ++k) {
     const Iso3 D = best.P * refined[k].P.inverse();  // part frame to part frame
     const double dt = D.translation().norm(), dr = Eigen::AngleAxisd(D.linear()).angle();
-    if (dt < 0.003 && dr < deg2rad(2)) continue;  // the same pose found twice
+    // The same pose found twice, or a shallower minimum next to it (ICP from a coarse peak): not a rival.
+    if (dt < 0.008 && dr < deg2rad(5)) continue;
     if (self_similar(model, D)) continue;
+    // Seam points given in the mesh's own frame; the model was lifted by -min_z.
+    const Iso3 lift = make_transform(Vec3(0, 0, -min_z), Mat3::Identity());
+    if (same_seams(seam_points, lift.inverse() * D * lift)) continue;
     out.ambiguity = std::max(out.ambiguity,
                              static_cast<double>(refined[k].score.inliers) / std::max(1, best.score.inliers));
   }

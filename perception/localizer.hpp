@@ -53,8 +53,11 @@ struct PoseEstimate {
   double seconds = 0.0;
 };
 
-/// Localizes `model` (part frame, resting on z = its lowest vertex) in `scan_base`.
+/// Localizes `model` (part frame, resting on z = its lowest vertex) in `scan_base`. `seam_points` (part
+/// frame, optional) are points along the part's weld seams, about 1 mm apart: two poses that map them onto
+/// each other weld the same place, so they are not ambiguous even where the mesh itself is not symmetric (a
+/// round tube on a square plate).
 PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& model,
-                      const LocalizeSetting& setting = {});
+                      const LocalizeSetting& setting = {}, const std::vector<Vec3>& seam_points = {});
 
 }  // namespace weldtwin

@@ -71,3 +71,52 @@ SurfaceSamples sample_surface(const Mesh& mesh, double spacing_m, double min_nor
 }
 
 }  // namespace weldtwin
+
+namespace weldtwin {
+namespace {
+
+// Whether a ray from o along unit d hits any triangle of the mesh beyond a small offset (Moller-Trumbore).
+bool blocked(const Mesh& mesh, const Vec3& o, const Vec3& d) {
+  for (const auto& f : mesh.faces) {
+    const Vec3 &a = mesh.vertices[static_cast<size_t>(f[0])], &b = mesh.vertices[static_cast<size_t>(f[1])],
+               &c = mesh.vertices[static_cast<size_t>(f[2])];
+    const Vec3 e1 = b - a, e2 = c - a, p = d.cross(e2);
+    const double det = e1.dot(p);
+    if (std::abs(det) < 1e-18) continue;
+    const Vec3 t = o - a;
+    const double u = t.dot(p) / det;
+    if (u < 0.0 || u > 1.0) continue;
+    const Vec3 q = t.cross(e1);
+    const double v = d.dot(q) / det;
+    if (v < 0.0 || u + v > 1.0) continue;
+    if (e2.dot(q) / det > 1e-5) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+SurfaceSamples externally_visible(const Mesh& mesh, const SurfaceSamples& samples) {
+  SurfaceSamples out;
+  for (size_t i = 0; i < samples.points.size(); ++i) {
+    const Vec3& n = samples.normals[i];
+    const Vec3 o = samples.points[i] + 1e-5 * n;
+    // Horizontal part of the normal, to tilt up from.
+    Vec3 h = n - n.z() * Vec3::UnitZ();
+    std::vector<Vec3> dirs{n};
+    if (h.norm() > 1e-6) {
+      h.normalize();
+      for (double up : {kPi / 6, kPi / 3}) dirs.push_back(std::cos(up) * h + std::sin(up) * Vec3::UnitZ());
+    }
+    if (n.z() > -0.1) dirs.push_back(Vec3::UnitZ());
+    for (const Vec3& d : dirs) {
+      if (d.dot(n) <= 0.0 || blocked(mesh, o, d.normalized())) continue;
+      out.points.push_back(samples.points[i]);
+      out.normals.push_back(n);
+      break;
+    }
+  }
+  return out;
+}
+
+}  // namespace weldtwin

@@ -28,4 +28,9 @@ struct SurfaceSamples {
 /// table).
 SurfaceSamples sample_surface(const Mesh& mesh, double spacing_m, double min_normal_z = -0.7);
 
+/// The samples a scanner above the table can see at all: from each, some ray out along its normal, tilted up
+/// by 0, 30 or 60 deg, or straight up, leaves the part without hitting it (a part's underside and the depths
+/// of a tube are dropped, so the scan is never pulled onto faces it cannot have seen).
+SurfaceSamples externally_visible(const Mesh& mesh, const SurfaceSamples& samples);
+
 }  // namespace weldtwin
