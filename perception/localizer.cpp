@@ -409,8 +409,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
     // Seam points given in the mesh's own frame; the model was lifted by -min_z.
     const Iso3 lift = make_transform(Vec3(0, 0, -min_z), Mat3::Identity());
     if (same_seams(seam_points, lift.inverse() * D * lift)) continue;
-    out.ambiguity = std::max(out.ambiguity,
-                             static_cast<double>(refined[k].score.inliers) / std::max(1, best.score.inliers));
+    out.ambiguity = std::max(out.ambiguity, support(refined[k].score) / std::max(1e-9, support(best.score)));
   }
 
   const Iso3 T_table_part = T_best;
