@@ -28,13 +28,8 @@ int run_localize(const LocalizeCommand& cmd) {
     cloud.swap(kept);
   }
   // Seam points from the part spec, when given: poses that weld the same place are not ambiguous.
-  std::vector<Vec3> seam_points;
-  if (!cmd.part.empty()) {
-    const PartSpec part = PartSpec::load(cmd.part);
-    for (const Seam& seam : part.seams)
-      for (int k = 0, n = static_cast<int>(seam.length_m() / 0.001) + 1; k <= n; ++k)
-        seam_points.push_back(seam.point_at(static_cast<double>(k) / n));
-  }
+  const std::vector<Vec3> seam_points =
+      cmd.part.empty() ? std::vector<Vec3>() : PartSpec::load(cmd.part).seam_points(0.001);
   const PoseEstimate pose = localize(cloud, mesh, LocalizeSetting(), seam_points);
 
   nlohmann::json out;

@@ -35,6 +35,14 @@ double PartSpec::footprint_radius_m() const {
   return r;
 }
 
+std::vector<Vec3> PartSpec::seam_points(double spacing_m) const {
+  std::vector<Vec3> out;
+  for (const Seam& seam : seams)
+    for (int k = 0, n = static_cast<int>(seam.length_m() / spacing_m) + 1; k <= n; ++k)
+      out.push_back(seam.point_at(static_cast<double>(k) / n));
+  return out;
+}
+
 namespace {
 
 Seam parse_seam(const YAML::Node& node, size_t index, const std::string& file) {

@@ -54,6 +54,8 @@ struct PartSpec {
   static PartSpec load(const std::string& yaml_path);
   /// Radius of the smallest origin-centred circle holding the footprint.
   double footprint_radius_m() const;
+  /// Points along every seam, about `spacing_m` apart, ends included (part frame).
+  std::vector<Vec3> seam_points(double spacing_m) const;
 
  private:
   static PartSpec parse(const std::string& yaml_path);

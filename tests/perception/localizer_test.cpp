@@ -47,10 +47,7 @@ TEST(Localizer, FindsEachPartInItsTwinScan) {
   for (const auto& [file, order] : cells) {
     const TwinScan scan = twin_scan(file);
     const PartSpec part = PartSpec::load(CellSpec::load(test::repo(file)).part_spec);
-    std::vector<Vec3> seam_points;
-    for (const Seam& seam : part.seams)
-      for (int k = 0, n = static_cast<int>(seam.length_m() / 0.001) + 1; k <= n; ++k)
-        seam_points.push_back(seam.point_at(static_cast<double>(k) / n));
+    const std::vector<Vec3> seam_points = part.seam_points(0.001);
     const PoseEstimate pose = localize(scan.cloud, load_mesh(part.mesh_path), LocalizeSetting(), seam_points);
     ASSERT_TRUE(pose.found) << file << ": " << pose.reason;
     double dt, dyaw;
