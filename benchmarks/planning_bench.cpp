@@ -22,11 +22,22 @@ std::vector<Iso3> random_poses(const AuboIk& ik) {
   return poses;
 }
 
+// The arm, its IK at the TCP, and the poses to solve, shared by the IK benchmarks.
+struct IkFixture {
+  RobotModel robot = RobotModel::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/robots/aubo_i5.urdf");
+  AuboIk ik{robot, "tcp"};
+  std::vector<Iso3> poses = random_poses(ik);
+};
+
+const IkFixture& ik_fixture() {
+  static const IkFixture f;
+  return f;
+}
+
 void BM_IkSolveAll(benchmark::State& state) {
-  static const RobotModel robot =
-      RobotModel::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/robots/aubo_i5.urdf");
-  const AuboIk ik(robot, "tcp");
-  const std::vector<Iso3> poses = random_poses(ik);
+  const IkFixture& f = ik_fixture();
+  const AuboIk& ik = f.ik;
+  const std::vector<Iso3>& poses = f.poses;
   size_t i = 0, valid = 0;
   for (auto _ : state) {
     const auto sols = ik.solve(poses[i++ & 1023]);
@@ -39,10 +50,9 @@ BENCHMARK(BM_IkSolveAll);
 
 // One branch, as the planner asks for it at every 200 Hz sample.
 void BM_IkSolveBranch(benchmark::State& state) {
-  static const RobotModel robot =
-      RobotModel::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/robots/aubo_i5.urdf");
-  const AuboIk ik(robot, "tcp");
-  const std::vector<Iso3> poses = random_poses(ik);
+  const IkFixture& f = ik_fixture();
+  const AuboIk& ik = f.ik;
+  const std::vector<Iso3>& poses = f.poses;
   size_t i = 0, valid = 0;
   for (auto _ : state) {
     valid += ik.solve_branch(poses[i & 1023], static_cast<int>(i & 7)).valid;
