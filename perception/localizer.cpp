@@ -1,15 +1,18 @@
 #include "perception/localizer.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <map>
 #include <unordered_map>
 
 #include <Eigen/Eigenvalues>
 
-#include <pcl/common/io.h>
 #include <pcl/console/print.h>
-#include <pcl/features/normal_3d.h>
 #include <pcl/filters/voxel_grid.h>
 #include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/point_types.h>
@@ -17,41 +20,50 @@
 #include <pcl/sample_consensus/model_types.h>
 #include <pcl/segmentation/sac_segmentation.h>
 
+#include "perception/mesh_rays.hpp"
+
 namespace weldtwin {
 namespace {
 
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+using Clock = std::chrono::steady_clock;
+
+pcl::PointXYZ pt(const Vec3& p) {
+  return pcl::PointXYZ(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()));
+}
 
 Cloud::Ptr to_cloud(const std::vector<Vec3>& points) {
   Cloud::Ptr c(new Cloud);
   c->reserve(points.size());
-  for (const Vec3& p : points)
-    c->push_back(
-        pcl::PointXYZ(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())));
+  for (const Vec3& p : points) c->push_back(pt(p));
   return c;
 }
 
-Cloud::Ptr voxelized(const Cloud::Ptr& in, double leaf) {
-  Cloud::Ptr out(new Cloud);
-  pcl::VoxelGrid<pcl::PointXYZ> grid;
-  grid.setInputCloud(in);
-  grid.setLeafSize(static_cast<float>(leaf), static_cast<float>(leaf), static_cast<float>(leaf));
-  grid.filter(*out);
-  return out;
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+  return v[v.size() / 2];
 }
 
-// The table: cascaded RANSAC for near-horizontal planes; of the big ones, the highest (the floor is bigger
-// but lower). Refined by least squares on its inliers. Returns false if there is none.
-bool find_table(const std::vector<Vec3>& scan, const LocalizeSetting& s, Eigen::Vector4d& plane) {
+// ---------------------------------------------------------------------------------------------- the table
+
+// The table: cascaded RANSAC for near-horizontal planes on an even thinning of the scan; of the big ones, the
+// highest (the floor is bigger but lower). Refined by least squares on the full-resolution points near it;
+// the spread of those points about the plane gives the range noise. Returns false if there is none.
+bool find_table(const std::vector<Vec3>& scan, const LocalizeSetting& s, Eigen::Vector4d& plane,
+                double& noise) {
   pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);  // failures are reported as values, not on stderr
-  std::vector<Vec3> near;
+  std::vector<const Vec3*> near;
+  near.reserve(scan.size());
   for (const Vec3& p : scan)
-    if (p.head<2>().norm() <= s.reach_radius_m) near.push_back(p);
+    if (p.head<2>().norm() <= s.reach_radius_m) near.push_back(&p);
   if (near.size() < 100) return false;
-  Cloud::Ptr rest = voxelized(to_cloud(near), 0.01);
+  Cloud::Ptr rest(new Cloud);
+  const size_t stride = std::max<size_t>(1, near.size() / static_cast<size_t>(s.table_sample_points));
+  for (size_t i = 0; i < near.size(); i += stride) rest->push_back(pt(*near[i]));
   struct Found {
     Eigen::Vector4d plane;
-    size_t inliers;
+    size_t inliers;  ///< area, in 5 cm cells
   };
   std::vector<Found> planes;
   pcl::SACSegmentation<pcl::PointXYZ> seg;
@@ -59,8 +71,8 @@ bool find_table(const std::vector<Vec3>& scan, const LocalizeSetting& s, Eigen::
   seg.setMethodType(pcl::SAC_RANSAC);
   seg.setAxis(Eigen::Vector3f::UnitZ());
   seg.setEpsAngle(static_cast<float>(deg2rad(s.table_max_tilt_deg)));
-  seg.setDistanceThreshold(std::max(s.table_threshold_m, 0.006));
-  seg.setMaxIterations(400);
+  seg.setDistanceThreshold(s.table_threshold_m);
+  seg.setMaxIterations(300);
   const size_t total = rest->size();
   for (int k = 0; k < 4 && rest->size() > 50; ++k) {
     pcl::PointIndices inliers;
@@ -71,7 +83,14 @@ bool find_table(const std::vector<Vec3>& scan, const LocalizeSetting& s, Eigen::
     Eigen::Vector4d p(coeff.values[0], coeff.values[1], coeff.values[2], coeff.values[3]);
     if (p[2] < 0) p = -p;
     p /= p.head<3>().norm();
-    planes.push_back({p, inliers.indices.size()});
+    // Size by the area the inliers spread over (5 cm cells), not by their count: a box top near the scanner
+    // gathers many points on little area.
+    std::unordered_map<long long, char> cells;
+    for (int i : inliers.indices) {
+      const auto& q = (*rest)[static_cast<size_t>(i)];
+      cells[static_cast<long long>(std::floor(q.x / 0.05)) * 100000LL + static_cast<long long>(std::floor(q.y / 0.05))] = 1;
+    }
+    planes.push_back({p, cells.size()});
     Cloud::Ptr next(new Cloud);
     std::vector<char> drop(rest->size(), 0);
     for (int i : inliers.indices) drop[static_cast<size_t>(i)] = 1;
@@ -84,14 +103,34 @@ bool find_table(const std::vector<Vec3>& scan, const LocalizeSetting& s, Eigen::
   for (const Found& f : planes) biggest = std::max(biggest, f.inliers);
   const Found* table = nullptr;
   for (const Found& f : planes)
-    if (f.inliers * 5 >= biggest && (!table || -f.plane[3] > -table->plane[3])) table = &f;
-  // Least-squares refinement on the full-resolution points close to it.
+    if (f.inliers * 5 >= biggest && f.inliers * 0.0025 >= s.min_table_area_m2 &&
+        (!table || -f.plane[3] > -table->plane[3]))
+      table = &f;
+  if (!table) return false;
+  // Least squares on the points within the band, the band narrowed to 3 sigma of the noise as it is learnt.
+  // The feet of everything standing on the table (walls, clamps, the part) reach into any band around it
+  // from above only; the table points next to them (1 cm cells, and their neighbours) are left out.
   Eigen::Vector4d p = table->plane;
-  for (int it = 0; it < 3; ++it) {
+  double band = s.table_threshold_m;
+  std::unordered_map<long long, char> raised;
+  auto cell = [](double x, double y) {
+    return static_cast<long long>(std::floor(x / 0.01)) * 1000003LL + static_cast<long long>(std::floor(y / 0.01));
+  };
+  for (int it = 0; it < 4; ++it) {
+    raised.clear();
+    for (const Vec3* q : near) {
+      const double r = p.head<3>().dot(*q) + p[3];
+      if (r > band && r < 0.5)
+        for (int dx = -1; dx <= 1; ++dx)
+          for (int dy = -1; dy <= 1; ++dy) raised[cell(q->x() + 0.01 * dx, q->y() + 0.01 * dy)] = 1;
+    }
     Vec3 c = Vec3::Zero();
     std::vector<Vec3> in;
-    for (const Vec3& q : near)
-      if (std::abs(p.head<3>().dot(q) + p[3]) < s.table_threshold_m) in.push_back(q);
+    std::vector<double> res;
+    for (const Vec3* q : near) {
+      const double r = p.head<3>().dot(*q) + p[3];
+      if (std::abs(r) < band && !raised.count(cell(q->x(), q->y()))) in.push_back(*q), res.push_back(std::abs(r));
+    }
     if (in.size() < 50) break;
     for (const Vec3& q : in) c += q;
     c /= static_cast<double>(in.size());
@@ -101,6 +140,8 @@ bool find_table(const std::vector<Vec3>& scan, const LocalizeSetting& s, Eigen::
     Vec3 n = eig.eigenvectors().col(0);
     if (n.z() < 0) n = -n;
     p << n, -n.dot(c);
+    noise = std::max(s.min_noise_m, 1.4826 * median(res));
+    band = std::max(3.5 * noise, 0.002);
   }
   plane = p;
   return true;
@@ -117,76 +158,309 @@ Iso3 table_frame(const Eigen::Vector4d& plane) {
   return make_transform(origin, R);   // T_base_table
 }
 
+// ---------------------------------------------------------------------------------------------- the model
+
+// A 2D occupancy grid in some frame: cells of `cell` metres from `origin`.
+struct Grid2 {
+  double cell = 0.002;
+  Eigen::Vector2d origin = Eigen::Vector2d::Zero();
+  int nx = 0, ny = 0;
+  std::vector<uint8_t> on;
+  std::vector<float> value;  ///< per cell: the model's top height (footprint), the lowest point (table)
+
+  void reset(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi, double c) {
+    cell = c;
+    origin = lo;
+    nx = static_cast<int>(std::ceil((hi.x() - lo.x()) / c)) + 1;
+    ny = static_cast<int>(std::ceil((hi.y() - lo.y()) / c)) + 1;
+    on.assign(static_cast<size_t>(nx) * static_cast<size_t>(ny), 0);
+    value.assign(on.size(), std::numeric_limits<float>::infinity());
+  }
+  long index(double x, double y) const {
+    const long ix = static_cast<long>(std::floor((x - origin.x()) / cell)),
+               iy = static_cast<long>(std::floor((y - origin.y()) / cell));
+    if (ix < 0 || iy < 0 || ix >= nx || iy >= ny) return -1;
+    return iy * nx + ix;
+  }
+  float value_at(double x, double y) const {
+    const long i = index(x, y);
+    return i >= 0 ? value[static_cast<size_t>(i)] : std::numeric_limits<float>::infinity();
+  }
+  Eigen::Vector2d centre(long i) const {
+    return origin + cell * Eigen::Vector2d(static_cast<double>(i % nx) + 0.5, static_cast<double>(i / nx) + 0.5);
+  }
+};
+
 struct Model {
-  SurfaceSamples samples;  // part frame, shifted to rest on z = 0
+  std::vector<Vec3> pts, nrm;   // part frame, resting on z = 0; every face but the underside
+  std::vector<uint8_t> visible;  // seen from outside (a scanner above the table can see it at all)
+  std::vector<uint8_t> view_score;  // how many of the test directions see it (more: seen more often)
+  std::vector<float> half_thickness, edge_distance;
   pcl::KdTreeFLANN<pcl::PointXYZ> tree;
+  Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();  // bounding box of the samples
   double radius = 0.0, height = 0.0;
-  std::vector<std::vector<int>> walls_by_height;  // indices of wall samples per 2 mm height bin
+  std::vector<std::vector<int>> walls_by_height;  // visible wall samples (every third) per height bin
+  Grid2 footprint;                                // where the part rests on the table, eroded
+
+  // Nearest sample by a lazily filled 1 mm grid over the box (+ margin): ICP asks about the same places
+  // again and again, so most lookups are one array read.
+  double cache_cell = 0.001, cache_margin = 0.015;
+  Vec3 cache_origin = Vec3::Zero();
+  int cx = 0, cy = 0, cz = 0;
+  std::vector<int> cache;
+
+  int nearest(const Vec3& p) {
+    const long ix = static_cast<long>((p.x() - cache_origin.x()) / cache_cell),
+               iy = static_cast<long>((p.y() - cache_origin.y()) / cache_cell),
+               iz = static_cast<long>((p.z() - cache_origin.z()) / cache_cell);
+    if (p.x() < cache_origin.x() || p.y() < cache_origin.y() || p.z() < cache_origin.z() || ix >= cx ||
+        iy >= cy || iz >= cz)
+      return -1;
+    int& slot = cache[(static_cast<size_t>(iz) * static_cast<size_t>(cy) + static_cast<size_t>(iy)) *
+                          static_cast<size_t>(cx) +
+                      static_cast<size_t>(ix)];
+    if (slot == -2) {
+      const Vec3 c = cache_origin + cache_cell * Vec3(static_cast<double>(ix) + 0.5,
+                                                       static_cast<double>(iy) + 0.5,
+                                                       static_cast<double>(iz) + 0.5);
+      std::vector<int> idx(1);
+      std::vector<float> d2(1);
+      slot = tree.nearestKSearch(pt(c), 1, idx, d2) > 0 ? idx[0] : -1;
+    }
+    return slot;
+  }
 };
 
 constexpr double kHeightBin = 0.002;
+
+// Feature edges of the mesh (where the faces meet at more than 30 deg, or a face has no neighbour), except
+// along the underside resting on the table, as points 1 mm apart.
+std::vector<Vec3> feature_edge_points(const Mesh& mesh, double min_z) {
+  // Vertices by position (a mesh file may repeat them per face), to 1 micrometre.
+  std::map<std::array<long long, 3>, int> ids;
+  std::vector<int> id(mesh.vertices.size());
+  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+    const Vec3& v = mesh.vertices[i];
+    const std::array<long long, 3> k{std::llround(v.x() * 1e6), std::llround(v.y() * 1e6), std::llround(v.z() * 1e6)};
+    id[i] = ids.emplace(k, static_cast<int>(ids.size())).first->second;
+  }
+  std::map<std::pair<int, int>, std::vector<Vec3>> edges;
+  std::map<std::pair<int, int>, std::pair<size_t, size_t>> ends;
+  for (const auto& f : mesh.faces) {
+    const Vec3 &a = mesh.vertices[static_cast<size_t>(f[0])], &b = mesh.vertices[static_cast<size_t>(f[1])],
+               &c = mesh.vertices[static_cast<size_t>(f[2])];
+    const Vec3 n = (b - a).cross(c - a);
+    if (n.norm() < 1e-14) continue;
+    for (int k = 0; k < 3; ++k) {
+      const size_t vi = static_cast<size_t>(f[k]), vj = static_cast<size_t>(f[(k + 1) % 3]);
+      const std::pair<int, int> e{std::min(id[vi], id[vj]), std::max(id[vi], id[vj])};
+      edges[e].push_back(n.normalized());
+      ends[e] = {vi, vj};
+    }
+  }
+  std::vector<Vec3> out;
+  for (const auto& [e, normals] : edges) {
+    const bool sharp = normals.size() != 2 || normals[0].dot(normals[1]) < std::cos(deg2rad(30.0));
+    if (!sharp) continue;
+    const Vec3 &a = mesh.vertices[ends[e].first], &b = mesh.vertices[ends[e].second];
+    if (a.z() - min_z < 1e-4 && b.z() - min_z < 1e-4) continue;
+    const int n = std::max(1, static_cast<int>((b - a).norm() / 0.001));
+    for (int k = 0; k <= n; ++k) out.push_back(a + (b - a) * (static_cast<double>(k) / n));
+  }
+  return out;
+}
+
+// Marks the cells of `grid` whose centres lie inside the triangle abc (x, y only).
+void fill_triangle(Grid2& grid, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const double x0 = std::min({a.x(), b.x(), c.x()}), x1 = std::max({a.x(), b.x(), c.x()});
+  const double y0 = std::min({a.y(), b.y(), c.y()}), y1 = std::max({a.y(), b.y(), c.y()});
+  auto side = [](const Vec3& p, const Vec3& q, double x, double y) {
+    return (q.x() - p.x()) * (y - p.y()) - (q.y() - p.y()) * (x - p.x());
+  };
+  for (double y = grid.origin.y() + grid.cell * (std::floor((y0 - grid.origin.y()) / grid.cell) + 0.5); y <= y1;
+       y += grid.cell)
+    for (double x = grid.origin.x() + grid.cell * (std::floor((x0 - grid.origin.x()) / grid.cell) + 0.5);
+         x <= x1; x += grid.cell) {
+      const double s0 = side(a, b, x, y), s1 = side(b, c, x, y), s2 = side(c, a, x, y);
+      if ((s0 >= 0 && s1 >= 0 && s2 >= 0) || (s0 <= 0 && s1 <= 0 && s2 <= 0)) {
+        const long i = grid.index(x, y);
+        if (i >= 0) grid.on[static_cast<size_t>(i)] = 1;
+      }
+    }
+}
+
+void build_model(const Mesh& mesh, double min_z, const LocalizeSetting& s, Model& model) {
+  Mesh rest = mesh;
+  for (Vec3& v : rest.vertices) v.z() -= min_z;
+  orient_outward(rest);  // a mesh file's winding is not to be trusted
+  const SurfaceSamples all = sample_surface(rest, s.model_spacing_m, -0.7);
+  const MeshRays rays(rest);
+  model.pts = all.points;
+  model.nrm = all.normals;
+  const size_t n = model.pts.size();
+  model.visible.resize(n);
+  model.view_score.resize(n);
+  model.half_thickness.resize(n);
+  model.lo = Vec3::Constant(1e9);
+  model.hi = Vec3::Constant(-1e9);
+  for (size_t k = 0; k < n; ++k) {
+    const Vec3& p = model.pts[k];
+    const Vec3& nn = model.nrm[k];
+    model.view_score[k] = static_cast<uint8_t>(view_directions(rays, p, nn));
+    model.visible[k] = model.view_score[k] > 0;
+    // Half the distance to the next surface behind the face or facing it: a residual beyond that may belong
+    // to the other surface, so trimming there keeps thin walls unbiased.
+    const double behind = rays.hit(p, -nn, 1e-5, 0.05), front = rays.hit(p, nn, 1e-5, 0.05);
+    model.half_thickness[k] = static_cast<float>(0.5 * std::min({behind, front, 0.1}));
+    model.lo = model.lo.cwiseMin(p);
+    model.hi = model.hi.cwiseMax(p);
+    model.radius = std::max(model.radius, p.head<2>().norm());
+  }
+  model.height = model.hi.z();
+  model.tree.setInputCloud(to_cloud(model.pts));
+
+  // Distance of every sample to the nearest feature edge.
+  model.edge_distance.assign(n, 1.0f);
+  const std::vector<Vec3> edge_pts = feature_edge_points(rest, 0.0);
+  if (!edge_pts.empty()) {
+    pcl::KdTreeFLANN<pcl::PointXYZ> edge_tree;
+    edge_tree.setInputCloud(to_cloud(edge_pts));
+    std::vector<int> idx(1);
+    std::vector<float> d2(1);
+    for (size_t k = 0; k < n; ++k)
+      if (edge_tree.nearestKSearch(pt(model.pts[k]), 1, idx, d2) > 0)
+        model.edge_distance[k] = std::sqrt(d2[0]);
+  }
+
+  // Wall samples by height for the Hough vote.
+  model.walls_by_height.assign(static_cast<size_t>(model.height / kHeightBin) + 2, {});
+  for (size_t k = 0; k < n; k += 3)
+    if (model.visible[k] && std::abs(model.nrm[k].z()) < 0.5)
+      model.walls_by_height[static_cast<size_t>(std::max(0.0, model.pts[k].z()) / kHeightBin)].push_back(
+          static_cast<int>(k));
+
+  // Footprint: the underside faces resting on the table.
+  model.footprint.reset(model.lo.head<2>() - Eigen::Vector2d::Constant(0.004),
+                        model.hi.head<2>() + Eigen::Vector2d::Constant(0.004), 0.002);
+  for (const auto& f : rest.faces) {
+    const Vec3 &a = rest.vertices[static_cast<size_t>(f[0])], &b = rest.vertices[static_cast<size_t>(f[1])],
+               &c = rest.vertices[static_cast<size_t>(f[2])];
+    const Vec3 nn = (b - a).cross(c - a);
+    if (nn.norm() < 1e-14 || nn.normalized().z() > -0.9 || std::max({a.z(), b.z(), c.z()}) > 1e-3) continue;
+    fill_triangle(model.footprint, a, b, c);
+  }
+  // The height of what a scanner sees from straight above each footprint cell.
+  for (size_t i = 0; i < model.footprint.on.size(); ++i) {
+    if (!model.footprint.on[i]) continue;
+    const Eigen::Vector2d xy = model.footprint.centre(static_cast<long>(i));
+    const double t = rays.hit(Vec3(xy.x(), xy.y(), model.height + 0.01), -Vec3::UnitZ(), 0.0);
+    model.footprint.value[i] = static_cast<float>(std::isfinite(t) ? model.height + 0.01 - t : 0.0);
+  }
+
+  // The lazy nearest-sample grid.
+  model.cache_origin = model.lo - Vec3::Constant(model.cache_margin);
+  const Vec3 ext = model.hi - model.lo + Vec3::Constant(2 * model.cache_margin);
+  model.cx = static_cast<int>(ext.x() / model.cache_cell) + 1;
+  model.cy = static_cast<int>(ext.y() / model.cache_cell) + 1;
+  model.cz = static_cast<int>(ext.z() / model.cache_cell) + 1;
+  model.cache.assign(static_cast<size_t>(model.cx) * static_cast<size_t>(model.cy) * static_cast<size_t>(model.cz),
+                     -2);
+}
+
+// Erodes a footprint by r cells (a cell stays on if every cell within r does).
+Grid2 eroded(const Grid2& g, int r) {
+  Grid2 out = g;
+  for (int y = 0; y < g.ny; ++y)
+    for (int x = 0; x < g.nx; ++x) {
+      bool all = g.on[static_cast<size_t>(y * g.nx + x)] != 0;
+      for (int dy = -r; dy <= r && all; ++dy)
+        for (int dx = -r; dx <= r && all; ++dx) {
+          const int xx = x + dx, yy = y + dy;
+          all = xx >= 0 && yy >= 0 && xx < g.nx && yy < g.ny && g.on[static_cast<size_t>(yy * g.nx + xx)];
+        }
+      out.on[static_cast<size_t>(y * g.nx + x)] = all;
+    }
+  return out;
+}
+
+// --------------------------------------------------------------------------------------- search and refine
+
+struct Context {
+  const LocalizeSetting& s;
+  Model& model;
+  double noise = 0.001;
+  double trim = 0.0025, edge_margin = 0.002, height_cut = 0.005, inlier = 0.003;
+};
 
 struct Hypothesis {
   double x = 0, y = 0, yaw = 0;
   int votes = 0;
 };
 
-// Robust point-to-plane ICP of the scan onto the model. P maps table-frame points into the part frame.
+// (x, y, yaw) point-to-plane ICP of scan points (table frame) onto the model. P maps the table frame into the
+// part frame. A correspondence counts only on a visible sample away from feature edges, with a residual
+// within the cut-off, the trim and half the wall behind it — each limit symmetric about the surface, so
+// noise does not push the answer one way.
 struct IcpResult {
   Iso3 P;
   int iterations = 0;
   bool converged = false;
 };
 
-IcpResult icp(const std::vector<Vec3>& all, const Model& model, Iso3 P, const LocalizeSetting& s) {
+IcpResult icp(const std::vector<Vec3>& scan, Context& c, Iso3 P, int iterations, bool thin_walls) {
   IcpResult out;
-  // The points that can take part: around the hypothesis, with room for its error.
-  std::vector<Vec3> near;
-  for (const Vec3& q : all) {
-    const Vec3 p = P * q;
-    if (p.head<2>().norm() <= model.radius + 0.04 && p.z() <= model.height + 0.03) near.push_back(q);
-  }
-  // A few thousand points pin six degrees of freedom down well; more only cost time.
-  std::vector<Vec3> scan;
-  const size_t stride = std::max<size_t>(1, near.size() / static_cast<size_t>(s.icp_max_points));
-  for (size_t i = 0; i < near.size(); i += stride) scan.push_back(near[i]);
-  std::vector<int> idx(1);
-  std::vector<float> d2(1);
-  for (int it = 0; it < s.icp_iterations; ++it) {
-    const double f = s.icp_iterations > 1 ? static_cast<double>(it) / (s.icp_iterations - 1) : 1.0;
-    const double max_d = s.icp_start_distance_m + f * (s.icp_end_distance_m - s.icp_start_distance_m);
-    Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
-    Eigen::Matrix<double, 6, 1> b = Eigen::Matrix<double, 6, 1>::Zero();
+  Model& m = c.model;
+  const bool dbg = std::getenv("WELDTWIN_DEBUG_STATS") && thin_walls;
+  std::map<std::string, std::array<double, 3>> stats;
+  for (int it = 0; it < iterations; ++it) {
+    if (dbg && it == 1)
+      for (const auto& [k, a] : stats)
+        std::fprintf(stderr, "  %s: %5.0f points, mean residual %+.3f mm, far weight %.2f\n", k.c_str(), a[1],
+                     1e3 * a[0] / a[1], a[2] / a[1]);
+    const double f = iterations > 1 ? static_cast<double>(it) / (iterations - 1) : 1.0;
+    const double max_d = std::max(c.trim, c.s.icp_start_distance_m + f * (c.trim - c.s.icp_start_distance_m));
+    Mat3 A = Mat3::Zero();
+    Vec3 b = Vec3::Zero();
     int used = 0;
     for (const Vec3& q : scan) {
       const Vec3 p = P * q;
-      if (p.head<2>().norm() > model.radius + 0.02 || p.z() > model.height + 0.02) continue;
-      const pcl::PointXYZ pp(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()));
-      if (model.tree.radiusSearch(pp, max_d, idx, d2, 1) < 1) continue;
-      const Vec3& m = model.samples.points[static_cast<size_t>(idx[0])];
-      const Vec3& n = model.samples.normals[static_cast<size_t>(idx[0])];
-      const double r = (p - m).dot(n);
-      const double w = std::abs(r) <= s.huber_m ? 1.0 : s.huber_m / std::abs(r);  // Huber
-      Eigen::Matrix<double, 6, 1> J;
-      J << p.cross(n), n;  // d r / d (omega, v) for p' = p + omega x p + v
-      A += w * J * J.transpose();
-      b -= w * J * r;
+      const int k = m.nearest(p);
+      if (k < 0) continue;
+      const size_t kk = static_cast<size_t>(k);
+      if (m.edge_distance[kk] < c.edge_margin) continue;
+      const Vec3& n = m.nrm[kk];
+      const Vec3 d = p - m.pts[kk];
+      const double r = d.dot(n);
+      if ((d - r * n).squaredNorm() > 9 * c.s.model_spacing_m * c.s.model_spacing_m) continue;
+      const Vec3 J(p.x() * n.y() - p.y() * n.x(), n.x(), n.y());
+      const double h = m.half_thickness[kk];
+      double limit = max_d;
+      if (thin_walls && h < c.trim) {
+        // A thin wall, seen on both sides: noise this wide carries points across its middle, so a point
+        // taken for the side seen less (an inner wall seen only steeply) may well belong to the other side.
+        // Only the better-seen side is used, trimmed at the middle so its own noise stays symmetric.
+        const int kb = m.nearest(m.pts[kk] - 2 * h * n);
+        if (kb >= 0 && m.nrm[static_cast<size_t>(kb)].dot(n) < -0.5 &&
+            m.view_score[static_cast<size_t>(kb)] > m.view_score[kk])
+          continue;
+        limit = std::min(max_d, h);
+      }
+      if (!m.visible[kk] || std::abs(r) > limit) continue;
+      A += J * J.transpose();
+      b -= J * r;
       ++used;
     }
     out.iterations = it + 1;
     if (used < 20) break;
-    const Eigen::Matrix<double, 6, 1> xi = A.ldlt().solve(b);
-    Iso3 step = Iso3::Identity();
-    step.linear() = Eigen::AngleAxisd(xi.head<3>().norm(),
-                                      xi.head<3>().norm() > 0 ? xi.head<3>().normalized() : Vec3::UnitZ())
-                        .toRotationMatrix();
-    step.translation() = xi.tail<3>();
-    P = step * P;
-    if (xi.norm() < 1e-8 && f > 0.99) {
-      out.converged = true;
-      break;
+    A += 1e-9 * Mat3::Identity();
+    const Vec3 xi = A.ldlt().solve(b);
+    P = planar_pose(xi.y(), xi.z(), 0.0, xi.x()) * P;
+    if (dbg) {
+      const Iso3 T = P.inverse();
+      std::fprintf(stderr, "    it %d used %d max_d %.1f mm -> %.4f %.4f %.3f deg\n", it, used, 1e3 * max_d,
+                   T.translation().x(), T.translation().y(), rad2deg(std::atan2(T.linear()(1, 0), T.linear()(0, 0))));
     }
-    if (it == s.icp_iterations - 1) out.converged = xi.norm() < 1e-6;
+    if (f >= 1.0) out.converged = std::abs(xi.x()) * 0.1 + xi.tail<2>().norm() < 1e-6;
   }
   out.P = orthonormalized(P);
   return out;
@@ -194,53 +468,73 @@ IcpResult icp(const std::vector<Vec3>& all, const Model& model, Iso3 P, const Lo
 
 struct Score {
   int inliers = 0, region = 0;
-  double rmse = 0.0, coverage = 0.0;
+  double wall_residual = 0.0;  ///< median |residual| of the points near walls, in noise sigmas
+  double rmse = 0.0, coverage = 0.0, free_space = 0.0;
+  double support() const { return inliers * coverage; }
 };
 
-Score score(const std::vector<Vec3>& scan, pcl::KdTreeFLANN<pcl::PointXYZ>& scan_tree, const Model& model,
-            const Iso3& P, const LocalizeSetting& s) {
+Score score(const std::vector<Vec3>& scan, pcl::KdTreeFLANN<pcl::PointXYZ>& scan_tree, const Grid2& table_seen,
+            const Grid2& footprint, Context& c, const Iso3& P) {
   Score out;
-  std::vector<int> idx(1);
-  std::vector<float> d2(1);
+  Model& m = c.model;
   double sum2 = 0.0;
+  std::vector<double> wall;
   for (const Vec3& q : scan) {
+    if (q.z() < c.height_cut) continue;
     const Vec3 p = P * q;
-    if (p.head<2>().norm() > model.radius + 0.005 || p.z() > model.height + 0.005) continue;
-    const pcl::PointXYZ pp(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()));
+    if (p.x() < m.lo.x() - 0.005 || p.y() < m.lo.y() - 0.005 || p.x() > m.hi.x() + 0.005 ||
+        p.y() > m.hi.y() + 0.005 || p.z() > m.hi.z() + 0.005)
+      continue;
     ++out.region;
-    if (model.tree.radiusSearch(pp, 2 * s.inlier_m, idx, d2, 1) < 1) continue;
-    const size_t k = static_cast<size_t>(idx[0]);
-    const double r = (p - model.samples.points[k]).dot(model.samples.normals[k]);
-    if (std::abs(r) < s.inlier_m && d2[0] < 4 * s.inlier_m * s.inlier_m) {
+    const int k = m.nearest(p);
+    if (k < 0) continue;
+    const Vec3 d = p - m.pts[static_cast<size_t>(k)];
+    const double r = d.dot(m.nrm[static_cast<size_t>(k)]);
+    if (std::abs(m.nrm[static_cast<size_t>(k)].z()) < 0.5 && m.visible[static_cast<size_t>(k)] &&
+        d.squaredNorm() < 0.01 * 0.01)
+      wall.push_back(std::abs(r) / c.noise);
+    if (std::abs(r) < c.inlier && d.squaredNorm() < 4 * c.inlier * c.inlier) {
       ++out.inliers;
       sum2 += r * r;
     }
   }
   out.rmse = out.inliers ? std::sqrt(sum2 / out.inliers) : 1.0;
-  // Coverage: model samples facing up or sideways with a scan point within 4 mm.
+  out.wall_residual = median(wall);
+  // Coverage: visible samples facing up or sideways, high enough to be told from the table, with a scan
+  // point near.
   const Iso3 T = P.inverse();
+  const double reach = std::max(0.004, 2 * c.noise);
   int seen = 0, total = 0;
-  for (size_t k = 0; k < model.samples.points.size(); k += 3) {
-    if (model.samples.normals[k].z() < -0.2) continue;
+  std::vector<int> idx(1);
+  std::vector<float> d2(1);
+  for (size_t k = 0; k < m.pts.size(); k += 3) {
+    if (!m.visible[k] || m.nrm[k].z() < -0.2 || m.pts[k].z() < c.height_cut) continue;
     ++total;
-    const Vec3 q = T * model.samples.points[k];
-    const pcl::PointXYZ pp(static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()));
-    if (scan_tree.radiusSearch(pp, 0.004, idx, d2, 1) > 0) ++seen;
+    if (scan_tree.nearestKSearch(pt(T * m.pts[k]), 1, idx, d2) > 0 && d2[0] < reach * reach) ++seen;
   }
   out.coverage = total ? static_cast<double>(seen) / total : 0.0;
+  // Free space: the table seen where the part would rest on it, clearly below the part's top there.
+  int cells = 0, through = 0;
+  for (size_t i = 0; i < footprint.on.size(); ++i) {
+    if (!footprint.on[i]) continue;
+    ++cells;
+    const Eigen::Vector2d xy = footprint.centre(static_cast<long>(i));
+    const Vec3 q = T * Vec3(xy.x(), xy.y(), 0.0);
+    through += table_seen.value_at(q.x(), q.y()) < footprint.value[i] - 3 * c.noise;
+  }
+  out.free_space = cells ? static_cast<double>(through) / cells : 0.0;
   return out;
 }
 
 // Whether the model maps onto itself under D (part frame): a symmetry, so poses D apart are the same weld.
-bool self_similar(const Model& model, const Iso3& D) {
-  std::vector<int> idx(1);
-  std::vector<float> d2(1);
+bool self_similar(Model& model, const Iso3& D) {
   double sum = 0.0;
   int n = 0;
-  for (size_t k = 0; k < model.samples.points.size(); k += 7) {
-    const Vec3 q = D * model.samples.points[k];
-    const pcl::PointXYZ pp(static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()));
-    if (model.tree.nearestKSearch(pp, 1, idx, d2) < 1) continue;
+  std::vector<int> idx(1);
+  std::vector<float> d2(1);
+  for (size_t k = 0; k < model.pts.size(); k += 7) {
+    if (!model.visible[k]) continue;
+    if (model.tree.nearestKSearch(pt(D * model.pts[k]), 1, idx, d2) < 1) continue;
     sum += std::sqrt(d2[0]);
     ++n;
   }
@@ -259,173 +553,294 @@ bool same_seams(const std::vector<Vec3>& seam, const Iso3& D) {
   return true;
 }
 
+std::vector<Vec3> thinned(const std::vector<Vec3>& v, size_t max) {
+  if (v.size() <= max) return v;
+  std::vector<Vec3> out;
+  out.reserve(max);
+  const double step = static_cast<double>(v.size()) / static_cast<double>(max);
+  for (size_t i = 0; i < max; ++i) out.push_back(v[static_cast<size_t>(static_cast<double>(i) * step)]);
+  return out;
+}
+
 }  // namespace
 
 PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, const LocalizeSetting& s,
                       const std::vector<Vec3>& seam_points) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
+  auto lap = t0;
   PoseEstimate out;
+  auto stage = [&](const char* name) {
+    const auto now = Clock::now();
+    out.stage_seconds.emplace_back(name, std::chrono::duration<double>(now - lap).count());
+    lap = now;
+  };
   auto finish = [&](const std::string& reason) {
     out.reason = reason;
-    out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    out.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
     return out;
   };
 
-  // Model: surface samples resting on z = 0, a k-d tree, wall samples by height.
-  Model model;
   double min_z = 1e9;
   for (const Vec3& v : mesh.vertices) min_z = std::min(min_z, v.z());
-  Mesh rest = mesh;
-  for (Vec3& v : rest.vertices) v.z() -= min_z;
-  model.samples = externally_visible(rest, sample_surface(rest, s.model_spacing_m));
-  if (model.samples.points.size() < 50) return finish("the model mesh is too small to sample");
-  Cloud::Ptr model_cloud = to_cloud(model.samples.points);
-  model.tree.setInputCloud(model_cloud);
-  for (const Vec3& p : model.samples.points) {
-    model.radius = std::max(model.radius, p.head<2>().norm());
-    model.height = std::max(model.height, p.z());
-  }
-  model.walls_by_height.resize(static_cast<size_t>(model.height / kHeightBin) + 2);
-  // Every third wall sample is enough to vote with.
-  for (size_t k = 0; k < model.samples.points.size(); k += 3)
-    if (std::abs(model.samples.normals[k].z()) < 0.5)
-      model.walls_by_height[static_cast<size_t>(model.samples.points[k].z() / kHeightBin)].push_back(
-          static_cast<int>(k));
+  Model model;
+  build_model(mesh, min_z, s, model);
+  if (model.pts.size() < 50) return finish("the model mesh is too small to sample");
+  stage("model");
 
-  // Table plane and the object points above it, in the table frame.
-  if (!find_table(scan_base, s, out.table_plane)) return finish("no table plane in the scan");
+  // Table plane, range noise, and the limits that follow from the noise.
+  double noise = s.min_noise_m;
+  if (!find_table(scan_base, s, out.table_plane, noise)) return finish("no table plane in the scan");
+  out.noise_m = noise;
+  Context c{s, model};
+  c.noise = noise;
+  c.trim = s.noise_trim * noise;
+  c.inlier = std::max(0.0015, 2.5 * noise);
+  c.edge_margin = s.edge_margin_sigmas * noise;
+  c.height_cut = std::max(s.min_height_m, s.height_cut_sigmas * noise);
   const Iso3 T_base_table = table_frame(out.table_plane), T_table_base = T_base_table.inverse();
+  stage("table");
+
+  // Object points above the table (table frame), and where the table itself is seen.
   std::vector<Vec3> above;
+  Grid2 table_seen;
+  table_seen.reset(Eigen::Vector2d::Constant(-s.reach_radius_m), Eigen::Vector2d::Constant(s.reach_radius_m),
+                   0.002);
+  const double table_band = std::max(0.002, 2.5 * noise);
   for (const Vec3& p : scan_base) {
+    const double rxy = p.head<2>().norm();
+    if (rxy < s.base_keepout_m || rxy > s.reach_radius_m) continue;
     const Vec3 q = T_table_base * p;
+    if (std::abs(q.z()) < table_band) {
+      const long i = table_seen.index(q.x(), q.y());
+      if (i >= 0) {
+        float& low = table_seen.value[static_cast<size_t>(i)];
+        low = std::min(low, static_cast<float>(q.z()));
+      }
+    }
     if (q.z() < s.min_height_m || q.z() > model.height + 0.05) continue;
-    if (p.head<2>().norm() < s.base_keepout_m || p.head<2>().norm() > s.reach_radius_m) continue;
     above.push_back(q);
   }
-  Cloud::Ptr objects = voxelized(to_cloud(above), s.voxel_m);
+  if (above.size() < 50) return finish("nothing stands on the table");
+  Cloud::Ptr objects(new Cloud);
+  {
+    pcl::VoxelGrid<pcl::PointXYZ> grid;
+    grid.setInputCloud(to_cloud(above));
+    const float leaf = static_cast<float>(s.voxel_m);
+    grid.setLeafSize(leaf, leaf, leaf);
+    grid.filter(*objects);
+  }
   out.object_points = static_cast<int>(objects->size());
   if (objects->size() < 50) return finish("nothing stands on the table");
   std::vector<Vec3> scan;
+  scan.reserve(objects->size());
   for (const auto& p : *objects) scan.emplace_back(p.x, p.y, p.z);
-
-  // Normals of the object points (PCA of neighbours).
-  pcl::NormalEstimation<pcl::PointXYZ, pcl::Normal> ne;
-  pcl::search::KdTree<pcl::PointXYZ>::Ptr search(new pcl::search::KdTree<pcl::PointXYZ>);
-  ne.setInputCloud(objects);
-  ne.setSearchMethod(search);
-  ne.setKSearch(s.normal_neighbours);
-  pcl::PointCloud<pcl::Normal> normals;
-  ne.compute(normals);
+  pcl::KdTreeFLANN<pcl::PointXYZ> scan_tree;
+  scan_tree.setInputCloud(objects);
+  const Grid2 footprint = eroded(model.footprint, static_cast<int>(std::ceil(std::max(0.003, 2 * noise) / 0.002)));
+  stage("objects");
 
   // Hough voting over (x, y, yaw): a scan wall point at height z with horizontal normal direction a, matched
   // with a model wall point at the same height with normal direction b, votes for yaw = a - b (and a - b +
   // pi, for PCA normals have no sign) and the translation that puts the model point on the scan point.
+  std::vector<size_t> voters;
+  for (size_t i = 0; i < scan.size(); ++i)
+    if (scan[i].z() >= c.height_cut) voters.push_back(i);
+  if (voters.size() < 20) return finish("nothing part-like stands on the table");
   std::unordered_map<long long, int> votes;
   const int yaw_bins = static_cast<int>(std::round(360.0 / s.vote_yaw_deg));
   auto key = [&](int ix, int iy, int iw) {
     return (static_cast<long long>(ix + 100000) * 200003LL + (iy + 100000)) * 1024LL + iw;
   };
-  const size_t stride = std::max<size_t>(1, scan.size() / 1500);
-  for (size_t i = 0; i < scan.size(); i += stride) {
-    const pcl::Normal& nn = normals[i];
-    if (!std::isfinite(nn.normal_z) || std::abs(nn.normal_z) > 0.5) continue;
-    const double a = std::atan2(nn.normal_y, nn.normal_x);
-    const long bin = static_cast<long>(scan[i].z() / kHeightBin);
+  const size_t stride = std::max<size_t>(1, voters.size() / static_cast<size_t>(s.vote_points));
+  std::vector<int> nidx;
+  std::vector<float> nd2;
+  for (size_t v = 0; v < voters.size(); v += stride) {
+    const Vec3& q = scan[voters[v]];
+    if (scan_tree.nearestKSearch(pt(q), s.normal_neighbours, nidx, nd2) < 6) continue;
+    Vec3 mean = Vec3::Zero();
+    for (int j : nidx) mean += scan[static_cast<size_t>(j)];
+    mean /= static_cast<double>(nidx.size());
+    Mat3 C = Mat3::Zero();
+    for (int j : nidx) C += (scan[static_cast<size_t>(j)] - mean) * (scan[static_cast<size_t>(j)] - mean).transpose();
+    const Eigen::SelfAdjointEigenSolver<Mat3> eig(C);
+    const Vec3 nn = eig.eigenvectors().col(0);
+    if (std::abs(nn.z()) > 0.5) continue;
+    const double a = std::atan2(nn.y(), nn.x());
+    const long bin = static_cast<long>(q.z() / kHeightBin);
     for (long hb = bin - 1; hb <= bin + 1; ++hb) {
       if (hb < 0 || hb >= static_cast<long>(model.walls_by_height.size())) continue;
       for (int k : model.walls_by_height[static_cast<size_t>(hb)]) {
-        const Vec3& m = model.samples.points[static_cast<size_t>(k)];
-        const Vec3& mn = model.samples.normals[static_cast<size_t>(k)];
+        const Vec3& mp = model.pts[static_cast<size_t>(k)];
+        const Vec3& mn = model.nrm[static_cast<size_t>(k)];
         const double b = std::atan2(mn.y(), mn.x());
         for (double flip : {0.0, kPi}) {
           double yaw = std::remainder(a - b + flip, 2 * kPi);
           if (yaw < 0) yaw += 2 * kPi;
-          const double c = std::cos(yaw), sn = std::sin(yaw);
-          const double tx = scan[i].x() - (c * m.x() - sn * m.y()),
-                       ty = scan[i].y() - (sn * m.x() + c * m.y());
+          const double cy = std::cos(yaw), sy = std::sin(yaw);
+          const double tx = q.x() - (cy * mp.x() - sy * mp.y()), ty = q.y() - (sy * mp.x() + cy * mp.y());
           const int iw = static_cast<int>(yaw / deg2rad(s.vote_yaw_deg)) % yaw_bins;
-          ++votes[key(static_cast<int>(std::floor(tx / s.vote_xy_m)),
-                      static_cast<int>(std::floor(ty / s.vote_xy_m)), iw)];
+          ++votes[key(static_cast<int>(std::floor(tx / s.vote_xy_m)), static_cast<int>(std::floor(ty / s.vote_xy_m)),
+                      iw)];
         }
       }
     }
   }
   if (votes.empty()) return finish("no part-like walls on the table");
-  // Peaks, smoothed over the 3x3x3 neighbourhood, best first, at least a bin apart.
+  // Peaks: the best raw bins, ranked by the votes of their 3x3x3 neighbourhood, at least a bin apart.
   std::vector<std::pair<int, long long>> ranked;
   ranked.reserve(votes.size());
   for (const auto& [k, v] : votes) ranked.emplace_back(v, k);
-  std::partial_sort(ranked.begin(), ranked.begin() + std::min<size_t>(ranked.size(), 200), ranked.end(),
+  const size_t top = std::min<size_t>(ranked.size(), 400);
+  std::partial_sort(ranked.begin(), ranked.begin() + static_cast<long>(top), ranked.end(),
                     [](const auto& x, const auto& y) { return x.first > y.first; });
-  std::vector<Hypothesis> hyps;
-  for (size_t r = 0; r < std::min<size_t>(ranked.size(), 200) && static_cast<int>(hyps.size()) < s.hypotheses;
-       ++r) {
+  std::vector<Hypothesis> peaks;
+  for (size_t r = 0; r < top; ++r) {
     const long long k = ranked[r].second;
     const int iw = static_cast<int>(k % 1024);
-    const long long rest_k = k / 1024;
-    const int iy = static_cast<int>(rest_k % 200003LL) - 100000,
-              ix = static_cast<int>(rest_k / 200003LL) - 100000;
-    Hypothesis h{(ix + 0.5) * s.vote_xy_m, (iy + 0.5) * s.vote_xy_m, (iw + 0.5) * deg2rad(s.vote_yaw_deg),
-                 ranked[r].first};
+    const long long rk = k / 1024;
+    const int iy = static_cast<int>(rk % 200003LL) - 100000, ix = static_cast<int>(rk / 200003LL) - 100000;
+    int sum = 0;
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dw = -1; dw <= 1; ++dw) {
+          const auto it = votes.find(key(ix + dx, iy + dy, (iw + dw + yaw_bins) % yaw_bins));
+          if (it != votes.end()) sum += it->second;
+        }
+    peaks.push_back({(ix + 0.5) * s.vote_xy_m, (iy + 0.5) * s.vote_xy_m, (iw + 0.5) * deg2rad(s.vote_yaw_deg), sum});
+  }
+  std::stable_sort(peaks.begin(), peaks.end(), [](const auto& a, const auto& b) { return a.votes > b.votes; });
+  std::vector<Hypothesis> hyps;
+  for (const Hypothesis& h : peaks) {
+    if (static_cast<int>(hyps.size()) >= s.hypotheses) break;
     bool close = false;
     for (const Hypothesis& o : hyps)
-      if (std::hypot(o.x - h.x, o.y - h.y) < 0.01 &&
-          std::abs(std::remainder(o.yaw - h.yaw, 2 * kPi)) < deg2rad(6))
-        close = true;
+      close = close || (std::hypot(o.x - h.x, o.y - h.y) < 0.01 &&
+                        std::abs(std::remainder(o.yaw - h.yaw, 2 * kPi)) < deg2rad(6));
     if (!close) hyps.push_back(h);
   }
+  stage("search");
 
-  // Refine every hypothesis; rank by inliers.
-  pcl::KdTreeFLANN<pcl::PointXYZ> scan_tree;
-  scan_tree.setInputCloud(objects);
+  // Refinement: every peak coarsely, the best few fully. Only points high enough to be told from the table
+  // take part.
+  // Each point stands in for the centroid of its neighbourhood: the noise shrinks several-fold, so a point
+  // on one side of a thin wall is no longer taken for the other side.
+  std::vector<Vec3> icp_points;
+  {
+    const int k = std::getenv("SMOOTH_K") ? std::atoi(std::getenv("SMOOTH_K")) : 0;
+    std::vector<int> idx;
+    std::vector<float> d2;
+    for (const Vec3& q : scan) {
+      if (q.z() < c.height_cut) continue;
+      if (k <= 1 || scan_tree.nearestKSearch(pt(q), k, idx, d2) < 3) {
+        icp_points.push_back(q);
+        continue;
+      }
+      Vec3 mean = Vec3::Zero();
+      int n = 0;
+      for (size_t j = 0; j < idx.size(); ++j)
+        if (d2[j] < 36e-6f) mean += scan[static_cast<size_t>(idx[j])], ++n;
+      icp_points.push_back(mean / n);
+    }
+  }
   struct Refined {
     Iso3 P;
     IcpResult icp;
     Score score;
   };
-  std::vector<Refined> refined;
+  auto near_pose = [&](const Iso3& P) {
+    std::vector<Vec3> near;
+    for (const Vec3& q : icp_points) {
+      const Vec3 p = P * q;
+      if (p.x() > model.lo.x() - 0.02 && p.y() > model.lo.y() - 0.02 && p.x() < model.hi.x() + 0.02 &&
+          p.y() < model.hi.y() + 0.02)
+        near.push_back(q);
+    }
+    return near;
+  };
+  std::vector<Refined> coarse;
   for (const Hypothesis& h : hyps) {
-    const Iso3 T_table_part = planar_pose(h.x, h.y, 0.0, h.yaw);
-    const IcpResult r = icp(scan, model, T_table_part.inverse(), s);
-    refined.push_back({r.P, r, score(scan, scan_tree, model, r.P, s)});
+    const Iso3 P0 = planar_pose(h.x, h.y, 0.0, h.yaw).inverse();
+    const IcpResult r = icp(thinned(near_pose(P0), static_cast<size_t>(s.icp_max_points / 2)), c, P0,
+                            s.coarse_iterations, false);
+    coarse.push_back({r.P, r, score(scan, scan_tree, table_seen, footprint, c, r.P)});
   }
-  // Rank by support that counts both ways: scan points explained by the model (inliers) times the share of
-  // the model's visible surface the scan confirms (coverage). A clamp can lend inliers to a wrong pose, but
-  // it rarely shows the faces that pose predicts.
-  auto support = [](const Score& sc) { return sc.inliers * sc.coverage; };
-  std::sort(refined.begin(), refined.end(),
-            [&](const Refined& a, const Refined& b) { return support(a.score) > support(b.score); });
+  // A pose that puts the part where the table is seen is no candidate; of the rest, the best few distinct.
+  auto better = [&](const Refined& a, const Refined& b) {
+    const bool fa = a.score.free_space <= s.max_free_space, fb = b.score.free_space <= s.max_free_space;
+    if (fa != fb) return fa;
+    return a.score.support() > b.score.support();
+  };
+  std::sort(coarse.begin(), coarse.end(), better);
+  std::vector<Refined> refined;
+  for (const Refined& r : coarse) {
+    if (static_cast<int>(refined.size()) >= s.finalists) break;
+    bool dup = false;
+    for (const Refined& o : refined) {
+      const Iso3 D = o.P * r.P.inverse();
+      dup = dup || (D.translation().norm() < 0.004 && Eigen::AngleAxisd(D.linear()).angle() < deg2rad(2));
+    }
+    if (dup) continue;
+    const IcpResult f = icp(thinned(near_pose(r.P), static_cast<size_t>(s.icp_max_points)), c, r.P,
+                            s.fine_iterations, true);
+    refined.push_back({f.P, f, score(scan, scan_tree, table_seen, footprint, c, f.P)});
+  }
+  std::sort(refined.begin(), refined.end(), better);
+  if (const char* start = std::getenv("WELDTWIN_DEBUG_START")) {
+    double x, y, yaw;
+    std::sscanf(start, "%lf %lf %lf", &x, &y, &yaw);
+    const Iso3 P0 = planar_pose(x, y, 0, yaw).inverse();
+    const IcpResult f = icp(thinned(near_pose(P0), static_cast<size_t>(s.icp_max_points)), c, P0, s.fine_iterations, true);
+    const Iso3 T = f.P.inverse();
+    std::fprintf(stderr, "from truth: dx %.3f dy %.3f mm dyaw %.3f deg\n", 1e3 * (T.translation().x() - x),
+                 1e3 * (T.translation().y() - y), rad2deg(std::atan2(T.linear()(1, 0), T.linear()(0, 0)) - yaw));
+  }
+  stage("refine");
+  if (std::getenv("WELDTWIN_LOCALIZE_DEBUG")) {
+    for (const auto* list : {&coarse, &refined})
+      for (const Refined& r : *list) {
+        const Iso3 T = r.P.inverse();
+        std::fprintf(stderr, "  %s x %.4f y %.4f yaw %.3f deg: inl %d reg %d cov %.3f free %.3f wall %.2f support %.0f its %d\n",
+                     list == &coarse ? "coarse" : "fine", T.translation().x(), T.translation().y(),
+                     rad2deg(std::atan2(T.linear()(1, 0), T.linear()(0, 0))), r.score.inliers, r.score.region,
+                     r.score.coverage, r.score.free_space, r.score.wall_residual, r.score.support(),
+                     r.icp.iterations);
+      }
+  }
   if (refined.empty()) return finish("part not found");
   const Refined& best = refined.front();
 
-  // Ambiguity: the best distinct pose that is not the same weld by the part's symmetry.
-  const Iso3 T_best = best.P.inverse();
-  for (size_t k = 1; k < refined.size(); ++k) {
-    const Iso3 D = best.P * refined[k].P.inverse();  // part frame to part frame
-    const double dt = D.translation().norm(), dr = Eigen::AngleAxisd(D.linear()).angle();
-    // The same pose found twice, or a shallower minimum next to it (ICP from a coarse peak): not a rival.
-    if (dt < 0.008 && dr < deg2rad(5)) continue;
+  // Ambiguity: the best distinct pose that is not the same weld by the part's symmetry, among the coarse and
+  // the refined poses that the free space allows.
+  const Iso3 lift = make_transform(Vec3(0, 0, -min_z), Mat3::Identity());  // mesh frame -> resting frame
+  std::vector<const Refined*> rivals;
+  for (const Refined& r : refined) rivals.push_back(&r);
+  for (const Refined& r : coarse) rivals.push_back(&r);
+  for (const Refined* r : rivals) {
+    if (r == &best || r->score.free_space > s.max_free_space) continue;
+    const Iso3 D = best.P * r->P.inverse();  // part frame to part frame
+    // The same pose found twice, or a shallower minimum next to it: not a rival.
+    if (D.translation().norm() < 0.008 && Eigen::AngleAxisd(D.linear()).angle() < deg2rad(5)) continue;
     if (self_similar(model, D)) continue;
-    // Seam points given in the mesh's own frame; the model was lifted by -min_z.
-    const Iso3 lift = make_transform(Vec3(0, 0, -min_z), Mat3::Identity());
     if (same_seams(seam_points, lift.inverse() * D * lift)) continue;
-    out.ambiguity = std::max(out.ambiguity, support(refined[k].score) / std::max(1e-9, support(best.score)));
+    out.ambiguity = std::max(out.ambiguity, r->score.support() / std::max(1e-9, best.score.support()));
   }
 
-  const Iso3 T_table_part = T_best;
-  // The mesh was shifted up by -min_z to rest on z = 0; undo it in the part frame.
-  const Iso3 shift = make_transform(Vec3(0, 0, -min_z), Mat3::Identity());
-  out.T_base_part = orthonormalized(T_base_table * T_table_part * shift);
+  out.T_base_part = orthonormalized(T_base_table * best.P.inverse() * lift);
   out.fitness = best.score.region ? static_cast<double>(best.score.inliers) / best.score.region : 0.0;
   out.rmse_m = best.score.rmse;
   out.coverage = best.score.coverage;
+  out.free_space = best.score.free_space;
+  out.wall_residual = best.score.wall_residual;
   out.converged = best.icp.converged;
   out.iterations = best.icp.iterations;
   out.inliers = best.score.inliers;
-  if (out.coverage < s.min_coverage)
-    return finish("part not found: the best match covers too little of the model");
-  if (out.rmse_m > s.max_rmse_m || out.fitness < s.min_fitness)
-    return finish("the part fits the scan poorly");
+  stage("verdict");
+  if (out.free_space > s.max_free_space)
+    return finish("part not found: the table is seen where the best match would stand");
+  if (out.coverage < s.min_coverage) return finish("part not found: the best match covers too little of the model");
+  if (out.fitness < s.min_fitness) return finish("the part fits the scan poorly");
+  if (out.wall_residual > s.max_wall_residual)
+    return finish("the part's walls fit the scan worse than the noise explains: a different part?");
   if (out.ambiguity >= s.ambiguity_ratio) return finish("ambiguous: a different pose fits almost as well");
   out.found = true;
   return finish("");

@@ -1,13 +1,15 @@
 // Finding a part in a base-frame cloud of a table scene, with figures that say how far to trust the answer.
 // The part rests on the table: the table plane (cascaded RANSAC) fixes roll, pitch and height, and the
 // remaining (x, y, yaw) is searched globally by Hough voting of oriented wall points against the model — no
-// initial guess, no region of interest. Each peak is refined by robust point-to-plane ICP that registers the
-// scan onto the model (so faces the sensor never saw bias nothing), and the verdict weighs fit, coverage of
-// the model and ambiguity between distinct poses (poses the part's own symmetry maps onto each other are
-// equal).
+// initial guess, no region of interest. Each peak is refined by a robust (x, y, yaw) point-to-plane ICP that
+// registers the scan onto the model with noise-aware, symmetric trimming (faces the sensor never saw, thin
+// walls and feature edges bias nothing), and the verdict weighs fit, coverage of the model, free space
+// (table seen where the part would stand) and ambiguity between distinct poses (poses the part's own
+// symmetry, or its seams, map onto each other are equal).
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/geometry.hpp"
@@ -16,27 +18,41 @@
 namespace weldtwin {
 
 struct LocalizeSetting {
+  // Table.
   double reach_radius_m = 1.2;       ///< the table is sought within this distance of the base axis
-  double table_threshold_m = 0.004;  ///< RANSAC inlier distance for the table plane
+  double table_threshold_m = 0.006;  ///< RANSAC inlier distance for the table plane
   double table_max_tilt_deg = 15.0;  ///< the table plane's normal is within this angle of +z
-  double min_height_m = 0.005;       ///< points at least this far above the table belong to objects
-  double base_keepout_m = 0.12;      ///< points this close to the base axis are the robot's base
-  double voxel_m = 0.002;            ///< voxel edge for the object points
-  double model_spacing_m = 0.002;    ///< model surface sample spacing
-  int normal_neighbours = 12;        ///< points for each normal's PCA
-  double vote_xy_m = 0.004;          ///< Hough bin size in x and y
-  double vote_yaw_deg = 2.0;         ///< Hough bin size in yaw
-  int hypotheses = 6;                ///< Hough peaks refined
-  int icp_iterations = 30;
-  int icp_max_points = 4000;            ///< scan points used per ICP iteration (evenly thinned)
-  double icp_start_distance_m = 0.010;  ///< correspondence cut-off at the first ICP iteration
-  double icp_end_distance_m = 0.003;    ///< and at the last
-  double huber_m = 0.001;               ///< robust kernel width
-  double inlier_m = 0.003;              ///< |point-to-plane residual| of an inlier
-  double min_coverage = 0.25;           ///< fraction of the model's samples that must have scan points nearby
-  double max_rmse_m = 0.0025;           ///< inlier RMSE above which the fit is poor
-  double min_fitness = 0.5;             ///< inlier fraction of the scan points on and around the model
-  double ambiguity_ratio = 0.9;         ///< a distinct pose scoring this close to the best is ambiguous
+  int table_sample_points = 40000;   ///< points the table RANSAC looks at (evenly thinned)
+  double min_table_area_m2 = 0.15;   ///< a plane seen over less area is a box top, not the table
+  // Objects above the table.
+  double min_height_m = 0.005;   ///< points at least this far above the table belong to objects
+  double base_keepout_m = 0.12;  ///< points this close to the base axis are the robot's base
+  double voxel_m = 0.002;        ///< voxel edge for the object points
+  // Model.
+  double model_spacing_m = 0.002;  ///< model surface sample spacing
+  // Global search.
+  int normal_neighbours = 24;  ///< points for each normal's PCA (Hough only)
+  int vote_points = 1500;      ///< scan wall points that vote
+  double vote_xy_m = 0.004;    ///< Hough bin size in x and y
+  double vote_yaw_deg = 2.0;   ///< Hough bin size in yaw
+  int hypotheses = 8;          ///< Hough peaks refined coarsely
+  int finalists = 3;           ///< coarse results refined fully
+  // Refinement: (x, y, yaw) point-to-plane ICP, trimmed symmetrically at a multiple of the range noise.
+  int coarse_iterations = 12;
+  int fine_iterations = 80;
+  int icp_max_points = 3000;             ///< scan points used per ICP iteration (evenly thinned)
+  double icp_start_distance_m = 0.012;   ///< correspondence cut-off at the first ICP iteration
+  double noise_trim = 2.5;               ///< residuals beyond this many noise sigmas are not used
+  double edge_margin_sigmas = 2.0;       ///< model samples this close to a feature edge are not used
+  double height_cut_sigmas = 3.0;        ///< scan points this close to the table are not used by ICP
+  double min_noise_m = 0.0005;           ///< floor of the estimated range noise
+  // Verdict.
+  double min_coverage = 0.45;      ///< fraction of the model's visible samples with scan points nearby
+  double min_fitness = 0.55;       ///< fraction of the scan points in the model's region that it explains
+  double max_free_space = 0.04;    ///< fraction of the model's footprint where the table is seen
+  double max_wall_residual = 0.58;  ///< median |residual| on the walls, in table noise sigmas (a different
+                                    ///< shape fits the walls worse than the noise explains)
+  double ambiguity_ratio = 0.85;   ///< a distinct pose scoring this close to the best is ambiguous
 };
 
 struct PoseEstimate {
@@ -44,13 +60,17 @@ struct PoseEstimate {
   std::string reason;  ///< why not found: no table, no part, poor fit, ambiguous
   Iso3 T_base_part = Iso3::Identity();
   double fitness = 0.0, rmse_m = 0.0, coverage = 0.0;
-  double ambiguity = 0.0;  ///< score of the best distinct non-equivalent pose over the best's
+  double free_space = 0.0;  ///< fraction of the footprint where the scan sees the table through the part
+  double ambiguity = 0.0;   ///< score of the best distinct non-equivalent pose over the best's
+  double noise_m = 0.0;     ///< range noise sigma estimated from the table
+  double wall_residual = 0.0;  ///< median |residual| of the scan points on the model's walls, in noise sigmas
   bool converged = false;
   int iterations = 0;
   int inliers = 0;
   Eigen::Vector4d table_plane = Eigen::Vector4d::Zero();  ///< n.x + d = 0, n up, base frame
   int object_points = 0;                                  ///< points above the table after voxelisation
   double seconds = 0.0;
+  std::vector<std::pair<std::string, double>> stage_seconds;  ///< model, table, objects, search, refine, verdict
 };
 
 /// Localizes `model` (part frame, resting on z = its lowest vertex) in `scan_base`. `seam_points` (part

@@ -8,6 +8,7 @@
 #include <random>
 
 #include "core/error.hpp"
+#include "perception/mesh_rays.hpp"
 
 namespace weldtwin {
 
@@ -73,50 +74,76 @@ SurfaceSamples sample_surface(const Mesh& mesh, double spacing_m, double min_nor
 }  // namespace weldtwin
 
 namespace weldtwin {
-namespace {
 
-// Whether a ray from o along unit d hits any triangle of the mesh beyond a small offset (Moller-Trumbore).
-bool blocked(const Mesh& mesh, const Vec3& o, const Vec3& d) {
-  for (const auto& f : mesh.faces) {
+SurfaceSamples externally_visible(const Mesh& mesh, const SurfaceSamples& samples) {
+  const MeshRays rays(mesh);
+  SurfaceSamples out;
+  for (size_t i = 0; i < samples.points.size(); ++i)
+    if (seen_from_outside(rays, samples.points[i], samples.normals[i])) {
+      out.points.push_back(samples.points[i]);
+      out.normals.push_back(samples.normals[i]);
+    }
+  return out;
+}
+
+int orient_outward(Mesh& mesh) {
+  const MeshRays rays(mesh);
+  auto crossings = [&](const Vec3& o, const Vec3& d) {
+    int n = 0;
+    for (double t = 1e-6; n < 64;) {
+      const double hit = rays.hit(o, d, t);
+      if (!std::isfinite(hit)) break;
+      ++n;
+      t = hit + 1e-6;
+    }
+    return n;
+  };
+  int turned = 0;
+  for (auto& f : mesh.faces) {
     const Vec3 &a = mesh.vertices[static_cast<size_t>(f[0])], &b = mesh.vertices[static_cast<size_t>(f[1])],
                &c = mesh.vertices[static_cast<size_t>(f[2])];
-    const Vec3 e1 = b - a, e2 = c - a, p = d.cross(e2);
-    const double det = e1.dot(p);
-    if (std::abs(det) < 1e-18) continue;
-    const Vec3 t = o - a;
-    const double u = t.dot(p) / det;
-    if (u < 0.0 || u > 1.0) continue;
-    const Vec3 q = t.cross(e1);
-    const double v = d.dot(q) / det;
-    if (v < 0.0 || u + v > 1.0) continue;
-    if (e2.dot(q) / det > 1e-5) return true;
+    const Vec3 cross = (b - a).cross(c - a);
+    if (cross.norm() < 1e-14) continue;
+    const Vec3 n = cross.normalized(), centre = (a + b + c) / 3.0;
+    const Vec3 u = (b - a).normalized(), v = n.cross(u);
+    int odd = 0;
+    for (const Vec3& d : {n, (n + 0.35 * u).normalized(), (n + 0.35 * v).normalized()})
+      odd += crossings(centre, d) % 2;
+    if (odd >= 2) {
+      std::swap(f[1], f[2]);
+      ++turned;
+    }
   }
-  return false;
+  return turned;
+}
+
+namespace {
+
+std::vector<Vec3> test_directions(const Vec3& n) {
+  // Horizontal part of the normal, to tilt up from.
+  Vec3 h = n - n.z() * Vec3::UnitZ();
+  std::vector<Vec3> dirs{n};
+  if (h.norm() > 1e-6) {
+    h.normalize();
+    for (double up : {kPi / 6, kPi / 3}) dirs.push_back(std::cos(up) * h + std::sin(up) * Vec3::UnitZ());
+  }
+  if (n.z() > -0.1) dirs.push_back(Vec3::UnitZ());
+  return dirs;
 }
 
 }  // namespace
 
-SurfaceSamples externally_visible(const Mesh& mesh, const SurfaceSamples& samples) {
-  SurfaceSamples out;
-  for (size_t i = 0; i < samples.points.size(); ++i) {
-    const Vec3& n = samples.normals[i];
-    const Vec3 o = samples.points[i] + 1e-5 * n;
-    // Horizontal part of the normal, to tilt up from.
-    Vec3 h = n - n.z() * Vec3::UnitZ();
-    std::vector<Vec3> dirs{n};
-    if (h.norm() > 1e-6) {
-      h.normalize();
-      for (double up : {kPi / 6, kPi / 3}) dirs.push_back(std::cos(up) * h + std::sin(up) * Vec3::UnitZ());
-    }
-    if (n.z() > -0.1) dirs.push_back(Vec3::UnitZ());
-    for (const Vec3& d : dirs) {
-      if (d.dot(n) <= 0.0 || blocked(mesh, o, d.normalized())) continue;
-      out.points.push_back(samples.points[i]);
-      out.normals.push_back(n);
-      break;
-    }
-  }
-  return out;
+bool seen_from_outside(const MeshRays& rays, const Vec3& point, const Vec3& n) {
+  for (const Vec3& d : test_directions(n))
+    if (d.dot(n) > 0.0 && !std::isfinite(rays.hit(point, d.normalized()))) return true;
+  return false;
+}
+
+int view_directions(const MeshRays& rays, const Vec3& point, const Vec3& n) {
+  int count = 0;
+  for (const Vec3& d : test_directions(n))
+    count += d.dot(n) > 0.0 && !std::isfinite(rays.hit(point, d.normalized()));
+  return count;
 }
 
 }  // namespace weldtwin

@@ -33,4 +33,14 @@ SurfaceSamples sample_surface(const Mesh& mesh, double spacing_m, double min_nor
 /// of a tube are dropped, so the scan is never pulled onto faces it cannot have seen).
 SurfaceSamples externally_visible(const Mesh& mesh, const SurfaceSamples& samples);
 
+class MeshRays;
+/// Turns every face of a closed mesh to face outwards (a ray leaving along its normal crosses the surface an
+/// even number of times; the majority of three such rays decides). Returns the number of faces turned.
+int orient_outward(Mesh& mesh);
+/// The test behind externally_visible() for one point with outward normal `n`.
+bool seen_from_outside(const MeshRays& rays, const Vec3& point, const Vec3& n);
+/// How many of those test directions (along the normal, tilted up by 30 and 60 deg, straight up) leave the
+/// part: 0 for a hidden face, more for a face a sweep sees from more places.
+int view_directions(const MeshRays& rays, const Vec3& point, const Vec3& n);
+
 }  // namespace weldtwin

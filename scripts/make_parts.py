@@ -161,9 +161,10 @@ def tube_tee():
     # hollow_prism extrudes along z; map (a, b, c) -> (x=c, y=a, z=b) keeps the winding (cyclic permutation)
     main = transform(hollow_prism(yz_outer, yz_inner, -main_len / 2, main_len / 2), lambda v: (v[2], v[0], v[1]))
     # branch along +y from the main tube's side wall: outline in the z-x plane extruded along y
-    zx_outer = [(0, -br_half), (0, br_half), (2 * br_half, br_half), (2 * br_half, -br_half)]
-    zx_inner = [(wall, -br_half + wall), (wall, br_half - wall), (2 * br_half - wall, br_half - wall),
-                (2 * br_half - wall, -br_half + wall)]
+    # (counter-clockwise in the (z, x) plane, so that the faces point outwards)
+    zx_outer = [(0, -br_half), (2 * br_half, -br_half), (2 * br_half, br_half), (0, br_half)]
+    zx_inner = [(wall, -br_half + wall), (2 * br_half - wall, -br_half + wall), (2 * br_half - wall, br_half - wall),
+                (wall, br_half - wall)]
     # (a, b, c) -> (x=b, y=c, z=a) is cyclic too
     branch = transform(hollow_prism(zx_outer, zx_inner, main_half, main_half + br_len), lambda v: (v[1], v[2], v[0]))
     tris = main + branch

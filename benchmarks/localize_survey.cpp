@@ -1,0 +1,294 @@
+// Randomized localization benchmark on twin scans with ground truth: seeded cells per part (any yaw, 2-4
+// clamps, clutter, default LiDAR noise), each swept and localized by ours and by the paper's pipeline on the
+// same scan. Success = found, every seam point within 1.0 mm of the true seams and rotation within 0.5 deg.
+// Also counts false accepts: every scan with its part's points removed, and every other part's mesh sought
+// in it, must be refused.
+//   localize_survey [--layouts N] [--seed S] [--jobs J] [--cache DIR] [--csv FILE] [--no-paper] CELL.yaml...
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <atomic>
+#include <map>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <thread>
+
+#include "core/error.hpp"
+#include "perception/cloud_io.hpp"
+#include "perception/localizer.hpp"
+#include "perception/paper_localizer.hpp"
+#include "perception/pose_error.hpp"
+#include "perception/scan_assembly.hpp"
+#include "sim/sweep_sim.hpp"
+
+using namespace weldtwin;
+
+namespace {
+
+struct Scan {
+  std::vector<Vec3> points;
+  std::vector<uint8_t> labels;
+  Iso3 truth = Iso3::Identity();
+};
+
+// Cache: point count, T (16 doubles), then float xyz + label per point. Only for re-running quickly.
+bool read_cache(const std::string& file, Scan& scan) {
+  std::ifstream in(file, std::ios::binary);
+  uint64_t n = 0;
+  if (!in.read(reinterpret_cast<char*>(&n), sizeof n)) return false;
+  double T[16];
+  in.read(reinterpret_cast<char*>(T), sizeof T);
+  for (int i = 0; i < 16; ++i) scan.truth.matrix()(i / 4, i % 4) = T[i];
+  std::vector<float> xyz(3 * n);
+  scan.labels.resize(n);
+  in.read(reinterpret_cast<char*>(xyz.data()), static_cast<std::streamsize>(xyz.size() * sizeof(float)));
+  in.read(reinterpret_cast<char*>(scan.labels.data()), static_cast<std::streamsize>(n));
+  if (!in) return false;
+  scan.points.resize(n);
+  for (size_t i = 0; i < n; ++i) scan.points[i] = Vec3(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+  return true;
+}
+
+void write_cache(const std::string& file, const Scan& scan) {
+  std::ofstream out(file + ".tmp", std::ios::binary);
+  const uint64_t n = scan.points.size();
+  out.write(reinterpret_cast<const char*>(&n), sizeof n);
+  double T[16];
+  for (int i = 0; i < 16; ++i) T[i] = scan.truth.matrix()(i / 4, i % 4);
+  out.write(reinterpret_cast<const char*>(T), sizeof T);
+  std::vector<float> xyz;
+  for (const Vec3& p : scan.points)
+    for (int k = 0; k < 3; ++k) xyz.push_back(static_cast<float>(p[k]));
+  out.write(reinterpret_cast<const char*>(xyz.data()), static_cast<std::streamsize>(xyz.size() * sizeof(float)));
+  out.write(reinterpret_cast<const char*>(scan.labels.data()), static_cast<std::streamsize>(n));
+  out.close();
+  std::filesystem::rename(file + ".tmp", file);
+}
+
+struct PartData {
+  std::string cell_file;
+  CellSpec spec;
+  PartSpec part;
+  Mesh mesh;
+  std::vector<Vec3> seam_points;
+  int order = 1;
+};
+
+struct Trial {
+  size_t part = 0;
+  uint64_t seed = 0;
+  PoseEstimate ours, paper;
+  PoseError ours_err, paper_err;
+  std::vector<std::pair<std::string, PoseEstimate>> impostors;  // must all be refused
+  size_t points = 0;
+};
+
+bool success(const PoseEstimate& p, const PoseError& e) {
+  return p.found && e.seam_max_m <= 1e-3 && e.rotation_rad <= deg2rad(0.5);
+}
+
+double pct(std::vector<double> v, double p) {
+  if (v.empty()) return std::nan("");
+  std::sort(v.begin(), v.end());
+  return v[static_cast<size_t>(std::round(p * static_cast<double>(v.size() - 1)))];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Randomized localization benchmark on twin scans: ours and the paper's method side by side."};
+  int layouts = 20, jobs = 2;
+  uint64_t seed0 = 1;
+  std::string cache, csv;
+  bool no_paper = false, no_impostors = false, noise_free = false;
+  std::vector<std::string> cells;
+  std::string samples;
+  app.add_option("--samples", samples, "also localize every DIR/*/scan.pcd against its part.stl and truth.json");
+  app.add_option("--layouts", layouts, "seeded cells per part")->capture_default_str();
+  app.add_option("--seed", seed0, "first seed")->capture_default_str();
+  app.add_option("--jobs", jobs, "cells in flight at once")->capture_default_str();
+  app.add_option("--cache", cache, "directory keeping swept scans for re-runs");
+  app.add_option("--csv", csv, "one line per trial");
+  app.add_flag("--no-paper", no_paper, "skip the paper's pipeline");
+  app.add_flag("--no-impostors", no_impostors, "skip the absent-part and wrong-part cases");
+  std::vector<std::string> lidar_args;
+  app.add_option("--lidar", lidar_args, "LiDAR setting override name=value (see sim/lidar_model.hpp)")
+      ->allow_extra_args(false);
+  app.add_flag("--noise-free", noise_free, "exact ranges, no dropouts or mixed pixels (to see biases)");
+  app.add_option("cells", cells, "cell YAML files");
+  CLI11_PARSE(app, argc, argv);
+  std::map<std::string, double> lidar_overrides;
+  for (const std::string& a : lidar_args) {
+    const size_t eq = a.find('=');
+    if (eq == std::string::npos) {
+      std::fprintf(stderr, "localize_survey: --lidar takes name=value, not '%s'\n", a.c_str());
+      return 2;
+    }
+    lidar_overrides[a.substr(0, eq)] = std::atof(a.c_str() + eq + 1);
+  }
+  try {
+    if (!samples.empty()) {
+      std::vector<std::filesystem::path> dirs;
+      for (const auto& e : std::filesystem::directory_iterator(samples))
+        if (e.is_directory()) dirs.push_back(e.path());
+      std::sort(dirs.begin(), dirs.end());
+      for (const auto& dir : dirs) {
+        const SampleTruth truth = read_sample_truth((dir / "truth.json").string());
+        const Mesh mesh = load_mesh((dir / "part.stl").string());
+        const std::vector<Vec3> cloud = read_cloud((dir / "scan.pcd").string());
+        const PoseEstimate ours = localize(cloud, mesh);
+        const PoseError e = pose_error(truth.part, ours.T_base_part, truth.T_base_part, z_symmetry_order(mesh));
+        std::printf("sample %-26s %s: seam %.3f mm, rotation %.3f deg, %.2f s [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f noise %.2f mm] %s\n",
+                    dir.filename().c_str(), ours.found ? "found  " : "refused", 1e3 * e.seam_max_m, rad2deg(e.rotation_rad),
+                    ours.seconds, ours.coverage, ours.fitness, ours.free_space, ours.ambiguity, ours.wall_residual,
+                    1e3 * ours.noise_m, ours.reason.c_str());
+        if (!no_paper) {
+          const PoseEstimate paper = localize_paper(cloud, mesh);
+          const PoseError pe = pose_error(truth.part, paper.T_base_part, truth.T_base_part, z_symmetry_order(mesh));
+          std::printf("       %-26s paper: seam %.3f mm, rotation %.3f deg, %.2f s\n", "", 1e3 * pe.seam_max_m,
+                      rad2deg(pe.rotation_rad), paper.seconds);
+        }
+      }
+    }
+    if (cells.empty()) return 0;
+    std::vector<PartData> parts;
+    for (const std::string& f : cells) {
+      PartData d;
+      d.cell_file = f;
+      d.spec = CellSpec::load(f);
+      d.part = PartSpec::load(d.spec.part_spec);
+      d.mesh = load_mesh(d.part.mesh_path);
+      d.seam_points = d.part.seam_points(0.001);
+      d.order = z_symmetry_order(d.mesh);
+      std::fprintf(stderr, "%s: z symmetry order %d\n", d.part.name.c_str(), d.order);
+      parts.push_back(std::move(d));
+    }
+    if (!cache.empty()) std::filesystem::create_directories(cache);
+    std::string lidar_key;
+    for (const auto& [k, v] : lidar_overrides) lidar_key += "-" + k + "=" + std::to_string(v);
+    const RobotModel robot = RobotModel::load(parts.front().spec.robot_urdf);
+    std::vector<Trial> trials(parts.size() * static_cast<size_t>(layouts));
+    std::vector<Iso3> scan_truth_of(trials.size(), Iso3::Identity());
+    std::atomic<size_t> next{0}, done{0};
+    std::mutex io;
+    auto worker = [&]() {
+      for (size_t i; (i = next++) < trials.size();) {
+        Trial& t = trials[i];
+        t.part = i / static_cast<size_t>(layouts);
+        t.seed = seed0 + i % static_cast<size_t>(layouts);
+        const PartData& d = parts[t.part];
+        Scan scan;
+        const std::string file =
+            cache.empty() ? "" : cache + "/" + d.part.name + "-" + std::to_string(t.seed) + (noise_free ? "-exact" : "") + lidar_key + ".scan";
+        if (file.empty() || !read_cache(file, scan)) {
+          const CellLayout layout = make_layout(d.spec, d.part, t.seed);
+          const MujocoWorld world(d.spec, d.part, robot, layout);
+          const SweepProgram program = SweepProgram::load(d.spec.sweep_program, robot);
+          LidarSetting lidar = noise_free ? LidarSetting().noise_free() : LidarSetting();
+          lidar.seed = t.seed;
+          lidar.apply(lidar_overrides, "--lidar");
+          SweepOptions opt;
+          opt.threads = jobs > 1 ? 1 : 0;
+          const SweepResult r = simulate_sweep(world, robot, program, lidar, opt);
+          const AssembledCloud cloud = assemble_scan(r.log, robot);
+          scan.points = cloud.points_base;
+          for (uint32_t s : cloud.sample_index) scan.labels.push_back(static_cast<uint8_t>(r.labels[s]));
+          scan.truth = layout.T_base_part;
+          if (!file.empty()) write_cache(file, scan);
+        }
+        t.points = scan.points.size();
+        scan_truth_of[i] = scan.truth;
+        t.ours = localize(scan.points, d.mesh, LocalizeSetting(), d.seam_points);
+        t.ours_err = pose_error(d.part, t.ours.T_base_part, scan.truth, d.order);
+        if (!no_paper) {
+          t.paper = localize_paper(scan.points, d.mesh);
+          t.paper_err = pose_error(d.part, t.paper.T_base_part, scan.truth, d.order);
+        }
+        if (!no_impostors) {
+          std::vector<Vec3> absent;
+          for (size_t k = 0; k < scan.points.size(); ++k)
+            if (scan.labels[k] != static_cast<uint8_t>(Label::kPart)) absent.push_back(scan.points[k]);
+          t.impostors.emplace_back("absent", localize(absent, d.mesh, LocalizeSetting(), d.seam_points));
+          for (const PartData& o : parts)
+            if (o.part.name != d.part.name)
+              t.impostors.emplace_back(o.part.name, localize(scan.points, o.mesh, LocalizeSetting(), o.seam_points));
+        }
+        std::lock_guard<std::mutex> lock(io);
+        ++done;
+        std::fprintf(stderr, "[%zu/%zu] %s seed %llu: ours %s %.3f mm %.3f deg %.2f s", done.load(), trials.size(),
+                     d.part.name.c_str(), static_cast<unsigned long long>(t.seed),
+                     t.ours.found ? "found" : ("refused (" + t.ours.reason + ")").c_str(), 1e3 * t.ours_err.seam_max_m,
+                     rad2deg(t.ours_err.rotation_rad), t.ours.seconds);
+        if (!no_paper)
+          std::fprintf(stderr, " | paper %.3f mm %.3f deg %.2f s", 1e3 * t.paper_err.seam_max_m,
+                       rad2deg(t.paper_err.rotation_rad), t.paper.seconds);
+        {
+          const Iso3 D = scan_truth_of[i].inverse() * t.ours.T_base_part;
+          std::fprintf(stderr, " [part-frame error %.2f %.2f %.2f mm]", 1e3 * D.translation().x(),
+                       1e3 * D.translation().y(), 1e3 * D.translation().z());
+        }
+        std::fprintf(stderr, " [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f noise %.2f]", t.ours.coverage,
+                     t.ours.fitness, t.ours.free_space, t.ours.ambiguity, t.ours.wall_residual, 1e3 * t.ours.noise_m);
+        for (const auto& [what, p] : t.impostors)
+          std::fprintf(stderr, " | %s %s [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f]",
+                       p.found ? "FALSE ACCEPT" : "refused", what.c_str(), p.coverage, p.fitness, p.free_space,
+                       p.ambiguity, p.wall_residual);
+        std::fprintf(stderr, "\n");
+      }
+    };
+    std::vector<std::thread> pool;
+    for (int j = 0; j < std::max(1, jobs); ++j) pool.emplace_back(worker);
+    for (auto& th : pool) th.join();
+
+    if (!csv.empty()) {
+      std::ofstream out(csv);
+      out << "part,seed,points,ours_found,ours_reason,ours_seam_max_mm,ours_seam_mean_mm,ours_rot_deg,ours_s,"
+             "paper_seam_max_mm,paper_rot_deg,paper_s,false_accepts\n";
+      for (const Trial& t : trials) {
+        int fa = 0;
+        for (const auto& im : t.impostors) fa += im.second.found;
+        out << parts[t.part].part.name << ',' << t.seed << ',' << t.points << ',' << t.ours.found << ",\""
+            << t.ours.reason << "\"," << 1e3 * t.ours_err.seam_max_m << ',' << 1e3 * t.ours_err.seam_mean_m << ','
+            << rad2deg(t.ours_err.rotation_rad) << ',' << t.ours.seconds << ',' << 1e3 * t.paper_err.seam_max_m << ','
+            << rad2deg(t.paper_err.rotation_rad) << ',' << t.paper.seconds << ',' << fa << '\n';
+      }
+    }
+    std::printf("%-15s %7s %9s %8s %8s %8s %8s %8s %9s %9s %8s\n", "part (method)", "trials", "success", "refused",
+                "wrong", "seam p50", "seam p95", "seam max", "rot p95", "time p50", "impost.");
+    int total_impostors = 0, total_false = 0;
+    for (size_t p = 0; p < parts.size(); ++p)
+      for (int method = 0; method < (no_paper ? 1 : 2); ++method) {
+        int n = 0, ok = 0, refused = 0, wrong = 0, imp = 0, fa = 0;
+        std::vector<double> seam, rot, secs;
+        for (const Trial& t : trials) {
+          if (t.part != p) continue;
+          const PoseEstimate& e = method ? t.paper : t.ours;
+          const PoseError& err = method ? t.paper_err : t.ours_err;
+          ++n;
+          ok += success(e, err);
+          refused += !e.found;
+          wrong += e.found && !success(e, err);  // a confident wrong pose: the failure that welds the wrong place
+          if (e.found) seam.push_back(1e3 * err.seam_max_m), rot.push_back(rad2deg(err.rotation_rad));
+          secs.push_back(e.seconds);
+          if (!method)
+            for (const auto& im : t.impostors) ++imp, fa += im.second.found;
+        }
+        total_impostors += imp;
+        total_false += fa;
+        std::printf("%-15s %7d %8.1f%% %8d %8d %8.3f %8.3f %8.3f %9.3f %9.3f %8s\n",
+                    (parts[p].part.name.substr(0, 8) + (method ? " (paper)" : " (ours)")).c_str(), n,
+                    100.0 * ok / std::max(1, n), refused, wrong, pct(seam, 0.5), pct(seam, 0.95), pct(seam, 1.0),
+                    pct(rot, 0.95), pct(secs, 0.5),
+                    method ? "" : (std::to_string(fa) + "/" + std::to_string(imp)).c_str());
+      }
+    std::printf("seam errors in mm (found poses), rotation in deg, time in s; false accepts %d of %d absent/wrong-part "
+                "cases\n",
+                total_false, total_impostors);
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "localize_survey: %s\n", e.what());
+    return 2;
+  }
+  return 0;
+}

@@ -1,0 +1,153 @@
+#include "perception/paper_localizer.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include <pcl/common/centroid.h>
+#include <pcl/common/common.h>
+#include <pcl/console/print.h>
+#include <pcl/filters/passthrough.h>
+#include <pcl/filters/statistical_outlier_removal.h>
+#include <pcl/filters/voxel_grid.h>
+#include <pcl/point_types.h>
+#include <pcl/registration/icp.h>
+#include <pcl/sample_consensus/method_types.h>
+#include <pcl/sample_consensus/model_types.h>
+#include <pcl/search/kdtree.h>
+#include <pcl/segmentation/extract_clusters.h>
+#include <pcl/segmentation/sac_segmentation.h>
+
+namespace weldtwin {
+namespace {
+
+using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+
+Cloud::Ptr without(const Cloud::Ptr& in, const pcl::PointIndices& drop) {
+  std::vector<char> gone(in->size(), 0);
+  for (int i : drop.indices) gone[static_cast<size_t>(i)] = 1;
+  Cloud::Ptr out(new Cloud);
+  for (size_t i = 0; i < in->size(); ++i)
+    if (!gone[i]) out->push_back((*in)[i]);
+  return out;
+}
+
+}  // namespace
+
+PoseEstimate localize_paper(const std::vector<Vec3>& scan_base, const Mesh& mesh, const PaperSetting& s) {
+  const auto t0 = std::chrono::steady_clock::now();
+  pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
+  PoseEstimate out;
+  auto finish = [&](const std::string& reason) {
+    out.reason = reason;
+    out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return out;
+  };
+  Cloud::Ptr cloud(new Cloud);
+  for (const Vec3& p : scan_base)
+    if (p.head<2>().norm() <= s.reach_radius_m)
+      cloud->push_back(pcl::PointXYZ(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())));
+  // PassThrough, voxel grid, statistical outlier removal.
+  Cloud::Ptr cropped(new Cloud), grid(new Cloud), clean(new Cloud);
+  pcl::PassThrough<pcl::PointXYZ> pass;
+  pass.setInputCloud(cloud);
+  pass.setFilterFieldName("z");
+  pass.setFilterLimits(static_cast<float>(s.z_min_m), static_cast<float>(s.z_max_m));
+  pass.filter(*cropped);
+  pcl::VoxelGrid<pcl::PointXYZ> voxel;
+  voxel.setInputCloud(cropped);
+  const float leaf = static_cast<float>(s.voxel_m);
+  voxel.setLeafSize(leaf, leaf, leaf);
+  voxel.filter(*grid);
+  if (grid->size() < 100) return finish("no points in the working volume");
+  pcl::StatisticalOutlierRemoval<pcl::PointXYZ> sor;
+  sor.setInputCloud(grid);
+  sor.setMeanK(s.outlier_neighbours);
+  sor.setStddevMulThresh(s.outlier_stddev);
+  sor.filter(*clean);
+
+  // Cascaded RANSAC: the table (the biggest horizontal plane), then planes above the part's height.
+  double model_height = 0.0, min_z = 1e9;
+  for (const Vec3& v : mesh.vertices) min_z = std::min(min_z, v.z());
+  for (const Vec3& v : mesh.vertices) model_height = std::max(model_height, v.z() - min_z);
+  pcl::SACSegmentation<pcl::PointXYZ> seg;
+  seg.setModelType(pcl::SACMODEL_PERPENDICULAR_PLANE);
+  seg.setMethodType(pcl::SAC_RANSAC);
+  seg.setAxis(Eigen::Vector3f::UnitZ());
+  seg.setEpsAngle(static_cast<float>(deg2rad(10.0)));
+  seg.setDistanceThreshold(static_cast<float>(s.plane_threshold_m));
+  seg.setMaxIterations(500);
+  seg.setInputCloud(clean);
+  pcl::PointIndices table;
+  pcl::ModelCoefficients coeff;
+  seg.segment(table, coeff);
+  if (table.indices.size() < 100) return finish("no table plane in the scan");
+  Eigen::Vector4d plane(coeff.values[0], coeff.values[1], coeff.values[2], coeff.values[3]);
+  if (plane[2] < 0) plane = -plane;
+  out.table_plane = plane;
+  Cloud::Ptr objects(new Cloud);
+  for (const auto& p : *without(clean, table))
+    if (plane.head<3>().dot(Vec3(p.x, p.y, p.z)) + plane[3] > s.plane_threshold_m) objects->push_back(p);
+  for (int k = 0; k < 2 && objects->size() > 100; ++k) {
+    pcl::PointIndices in;
+    seg.setInputCloud(objects);
+    seg.segment(in, coeff);
+    if (in.indices.size() < 100 || -coeff.values[3] / coeff.values[2] < model_height + 0.005) break;
+    objects = without(objects, in);
+  }
+  // Clusters: the one whose size is closest to the model's.
+  pcl::search::KdTree<pcl::PointXYZ>::Ptr tree(new pcl::search::KdTree<pcl::PointXYZ>);
+  tree->setInputCloud(objects);
+  std::vector<pcl::PointIndices> clusters;
+  pcl::EuclideanClusterExtraction<pcl::PointXYZ> ec;
+  ec.setClusterTolerance(s.cluster_tolerance_m);
+  ec.setMinClusterSize(50);
+  ec.setSearchMethod(tree);
+  ec.setInputCloud(objects);
+  ec.extract(clusters);
+  if (clusters.empty()) return finish("nothing stands on the table");
+  double model_size = 0.0;
+  for (const Vec3& v : mesh.vertices) model_size = std::max(model_size, v.head<2>().norm());
+  const pcl::PointIndices* chosen = nullptr;
+  double chosen_gap = 1e9;
+  for (const pcl::PointIndices& c : clusters) {
+    Eigen::Vector4f lo, hi;
+    pcl::getMinMax3D(*objects, c, lo, hi);
+    const double size = 0.5 * (hi - lo).head<2>().norm();
+    if (std::abs(size - model_size) < chosen_gap) chosen_gap = std::abs(size - model_size), chosen = &c;
+  }
+  Cloud::Ptr target(new Cloud);
+  pcl::copyPointCloud(*objects, *chosen, *target);
+
+  // Model samples over the whole mesh (the paper samples every face), centroid guess, point-to-point ICP.
+  Mesh rest = mesh;
+  for (Vec3& v : rest.vertices) v.z() -= min_z;
+  const SurfaceSamples samples = sample_surface(rest, s.voxel_m, -2.0);
+  Cloud::Ptr source(new Cloud);
+  for (const Vec3& p : samples.points)
+    source->push_back(pcl::PointXYZ(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())));
+  Eigen::Vector4f c_model, c_scan;
+  pcl::compute3DCentroid(*source, c_model);
+  pcl::compute3DCentroid(*target, c_scan);
+  Eigen::Matrix4f guess = Eigen::Matrix4f::Identity();
+  guess.block<3, 1>(0, 3) = (c_scan - c_model).head<3>();
+  pcl::IterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> icp;
+  icp.setInputSource(source);
+  icp.setInputTarget(target);
+  icp.setMaximumIterations(s.icp_iterations);
+  icp.setMaxCorrespondenceDistance(s.icp_max_distance_m);
+  icp.setTransformationEpsilon(1e-10);
+  Cloud aligned;
+  icp.align(aligned, guess);
+  const Eigen::Matrix4d M = icp.getFinalTransformation().cast<double>();
+  Iso3 T_base_rest;
+  T_base_rest.matrix() = M;
+  out.T_base_part = orthonormalized(T_base_rest * make_transform(Vec3(0, 0, -min_z), Mat3::Identity()));
+  out.converged = icp.hasConverged();
+  out.rmse_m = std::sqrt(icp.getFitnessScore());
+  out.object_points = static_cast<int>(target->size());
+  out.found = true;
+  return finish("");
+}
+
+}  // namespace weldtwin
