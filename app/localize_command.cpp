@@ -9,6 +9,7 @@
 #include "perception/cloud_io.hpp"
 #include "perception/localizer.hpp"
 #include "perception/mesh_io.hpp"
+#include "perception/paper_localizer.hpp"
 
 namespace weldtwin {
 
@@ -30,7 +31,8 @@ int run_localize(const LocalizeCommand& cmd) {
   // Seam points from the part spec, when given: poses that weld the same place are not ambiguous.
   const std::vector<Vec3> seam_points =
       cmd.part.empty() ? std::vector<Vec3>() : PartSpec::load(cmd.part).seam_points(0.001);
-  const PoseEstimate pose = localize(cloud, mesh, LocalizeSetting(), seam_points);
+  const PoseEstimate pose = cmd.method == "paper" ? localize_paper(cloud, mesh)
+                                                  : localize(cloud, mesh, LocalizeSetting(), seam_points);
 
   nlohmann::json out;
   out["T_base_part"] = nlohmann::json::array();
@@ -41,7 +43,13 @@ int run_localize(const LocalizeCommand& cmd) {
   out["reason"] = pose.reason;
   out["fitness"] = pose.fitness;
   out["rmse_m"] = pose.rmse_m;
+  out["method"] = cmd.method;
   out["coverage"] = pose.coverage;
+  out["free_space"] = pose.free_space;
+  out["wall_residual_sigmas"] = pose.wall_residual;
+  out["noise_m"] = pose.noise_m;
+  out["stage_seconds"] = nlohmann::json::object();
+  for (const auto& [stage, sec] : pose.stage_seconds) out["stage_seconds"][stage] = sec;
   out["ambiguity"] = pose.ambiguity;
   out["converged"] = pose.converged;
   out["iterations"] = pose.iterations;

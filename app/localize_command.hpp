@@ -12,6 +12,7 @@ struct LocalizeCommand {
   std::vector<double> roi;  ///< empty, or xmin ymin zmin xmax ymax zmax [m]
   std::string units = "m";  ///< mesh units: m or mm
   std::string part;         ///< optional part spec: its seams decide which symmetric poses are equivalent
+  std::string method = "ours";  ///< ours, or paper (the published pipeline, the benchmarks' baseline)
   std::string out;
   bool quiet = false;
 };

@@ -44,6 +44,11 @@ int main(int argc, char** argv) {
   lc->add_option("--units", loc.units, "mesh units: m (default) or mm");
   lc->add_option("--part", loc.part,
                  "optional part spec: poses that put the seams on the same places are equivalent");
+  lc->add_option(
+        "--method", loc.method,
+        "ours (default), or paper: the published PassThrough/RANSAC/point-to-point ICP pipeline, kept "
+        "as the baseline (it has no verdict and answers even when wrong)")
+      ->check(CLI::IsMember({"ours", "paper"}));
   lc->add_option("--out", loc.out, "pose JSON to write")->required();
   lc->add_flag("-q,--quiet", loc.quiet, "no progress line");
 

@@ -7,11 +7,11 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <atomic>
-#include <map>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <mutex>
 #include <thread>
 
@@ -61,7 +61,8 @@ void write_cache(const std::string& file, const Scan& scan) {
   std::vector<float> xyz;
   for (const Vec3& p : scan.points)
     for (int k = 0; k < 3; ++k) xyz.push_back(static_cast<float>(p[k]));
-  out.write(reinterpret_cast<const char*>(xyz.data()), static_cast<std::streamsize>(xyz.size() * sizeof(float)));
+  out.write(reinterpret_cast<const char*>(xyz.data()),
+            static_cast<std::streamsize>(xyz.size() * sizeof(float)));
   out.write(reinterpret_cast<const char*>(scan.labels.data()), static_cast<std::streamsize>(n));
   out.close();
   std::filesystem::rename(file + ".tmp", file);
@@ -105,7 +106,8 @@ int main(int argc, char** argv) {
   bool no_paper = false, no_impostors = false, noise_free = false;
   std::vector<std::string> cells;
   std::string samples;
-  app.add_option("--samples", samples, "also localize every DIR/*/scan.pcd against its part.stl and truth.json");
+  app.add_option("--samples", samples,
+                 "also localize every DIR/*/scan.pcd against its part.stl and truth.json");
   app.add_option("--layouts", layouts, "seeded cells per part")->capture_default_str();
   app.add_option("--seed", seed0, "first seed")->capture_default_str();
   app.add_option("--jobs", jobs, "cells in flight at once")->capture_default_str();
@@ -113,6 +115,9 @@ int main(int argc, char** argv) {
   app.add_option("--csv", csv, "one line per trial");
   app.add_flag("--no-paper", no_paper, "skip the paper's pipeline");
   app.add_flag("--no-impostors", no_impostors, "skip the absent-part and wrong-part cases");
+  int impostor_layouts = -1;
+  app.add_option("--impostor-layouts", impostor_layouts,
+                 "absent/wrong-part cases on the first N layouts of each part only (default: all)");
   std::vector<std::string> lidar_args;
   app.add_option("--lidar", lidar_args, "LiDAR setting override name=value (see sim/lidar_model.hpp)")
       ->allow_extra_args(false);
@@ -139,16 +144,20 @@ int main(int argc, char** argv) {
         const Mesh mesh = load_mesh((dir / "part.stl").string());
         const std::vector<Vec3> cloud = read_cloud((dir / "scan.pcd").string());
         const PoseEstimate ours = localize(cloud, mesh);
-        const PoseError e = pose_error(truth.part, ours.T_base_part, truth.T_base_part, z_symmetry_order(mesh));
-        std::printf("sample %-26s %s: seam %.3f mm, rotation %.3f deg, %.2f s [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f noise %.2f mm] %s\n",
-                    dir.filename().c_str(), ours.found ? "found  " : "refused", 1e3 * e.seam_max_m, rad2deg(e.rotation_rad),
-                    ours.seconds, ours.coverage, ours.fitness, ours.free_space, ours.ambiguity, ours.wall_residual,
-                    1e3 * ours.noise_m, ours.reason.c_str());
+        const PoseError e =
+            pose_error(truth.part, ours.T_base_part, truth.T_base_part, z_symmetry_order(mesh));
+        std::printf(
+            "sample %-26s %s: seam %.3f mm, rotation %.3f deg, %.2f s [cov %.2f fit %.2f free %.2f amb %.2f "
+            "wall %.2f noise %.2f mm] %s\n",
+            dir.filename().c_str(), ours.found ? "found  " : "refused", 1e3 * e.seam_max_m,
+            rad2deg(e.rotation_rad), ours.seconds, ours.coverage, ours.fitness, ours.free_space,
+            ours.ambiguity, ours.wall_residual, 1e3 * ours.noise_m, ours.reason.c_str());
         if (!no_paper) {
           const PoseEstimate paper = localize_paper(cloud, mesh);
-          const PoseError pe = pose_error(truth.part, paper.T_base_part, truth.T_base_part, z_symmetry_order(mesh));
-          std::printf("       %-26s paper: seam %.3f mm, rotation %.3f deg, %.2f s\n", "", 1e3 * pe.seam_max_m,
-                      rad2deg(pe.rotation_rad), paper.seconds);
+          const PoseError pe =
+              pose_error(truth.part, paper.T_base_part, truth.T_base_part, z_symmetry_order(mesh));
+          std::printf("       %-26s paper: seam %.3f mm, rotation %.3f deg, %.2f s\n", "",
+                      1e3 * pe.seam_max_m, rad2deg(pe.rotation_rad), paper.seconds);
         }
       }
     }
@@ -180,8 +189,9 @@ int main(int argc, char** argv) {
         t.seed = seed0 + i % static_cast<size_t>(layouts);
         const PartData& d = parts[t.part];
         Scan scan;
-        const std::string file =
-            cache.empty() ? "" : cache + "/" + d.part.name + "-" + std::to_string(t.seed) + (noise_free ? "-exact" : "") + lidar_key + ".scan";
+        const std::string file = cache.empty() ? ""
+                                               : cache + "/" + d.part.name + "-" + std::to_string(t.seed) +
+                                                     (noise_free ? "-exact" : "") + lidar_key + ".scan";
         if (file.empty() || !read_cache(file, scan)) {
           const CellLayout layout = make_layout(d.spec, d.part, t.seed);
           const MujocoWorld world(d.spec, d.part, robot, layout);
@@ -206,21 +216,23 @@ int main(int argc, char** argv) {
           t.paper = localize_paper(scan.points, d.mesh);
           t.paper_err = pose_error(d.part, t.paper.T_base_part, scan.truth, d.order);
         }
-        if (!no_impostors) {
+        if (!no_impostors &&
+            (impostor_layouts < 0 || t.seed < seed0 + static_cast<uint64_t>(impostor_layouts))) {
           std::vector<Vec3> absent;
           for (size_t k = 0; k < scan.points.size(); ++k)
             if (scan.labels[k] != static_cast<uint8_t>(Label::kPart)) absent.push_back(scan.points[k]);
           t.impostors.emplace_back("absent", localize(absent, d.mesh, LocalizeSetting(), d.seam_points));
           for (const PartData& o : parts)
             if (o.part.name != d.part.name)
-              t.impostors.emplace_back(o.part.name, localize(scan.points, o.mesh, LocalizeSetting(), o.seam_points));
+              t.impostors.emplace_back(o.part.name,
+                                       localize(scan.points, o.mesh, LocalizeSetting(), o.seam_points));
         }
         std::lock_guard<std::mutex> lock(io);
         ++done;
-        std::fprintf(stderr, "[%zu/%zu] %s seed %llu: ours %s %.3f mm %.3f deg %.2f s", done.load(), trials.size(),
-                     d.part.name.c_str(), static_cast<unsigned long long>(t.seed),
-                     t.ours.found ? "found" : ("refused (" + t.ours.reason + ")").c_str(), 1e3 * t.ours_err.seam_max_m,
-                     rad2deg(t.ours_err.rotation_rad), t.ours.seconds);
+        std::fprintf(stderr, "[%zu/%zu] %s seed %llu: ours %s %.3f mm %.3f deg %.2f s", done.load(),
+                     trials.size(), d.part.name.c_str(), static_cast<unsigned long long>(t.seed),
+                     t.ours.found ? "found" : ("refused (" + t.ours.reason + ")").c_str(),
+                     1e3 * t.ours_err.seam_max_m, rad2deg(t.ours_err.rotation_rad), t.ours.seconds);
         if (!no_paper)
           std::fprintf(stderr, " | paper %.3f mm %.3f deg %.2f s", 1e3 * t.paper_err.seam_max_m,
                        rad2deg(t.paper_err.rotation_rad), t.paper.seconds);
@@ -230,11 +242,12 @@ int main(int argc, char** argv) {
                        1e3 * D.translation().y(), 1e3 * D.translation().z());
         }
         std::fprintf(stderr, " [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f noise %.2f]", t.ours.coverage,
-                     t.ours.fitness, t.ours.free_space, t.ours.ambiguity, t.ours.wall_residual, 1e3 * t.ours.noise_m);
+                     t.ours.fitness, t.ours.free_space, t.ours.ambiguity, t.ours.wall_residual,
+                     1e3 * t.ours.noise_m);
         for (const auto& [what, p] : t.impostors)
           std::fprintf(stderr, " | %s %s [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f]",
-                       p.found ? "FALSE ACCEPT" : "refused", what.c_str(), p.coverage, p.fitness, p.free_space,
-                       p.ambiguity, p.wall_residual);
+                       p.found ? "FALSE ACCEPT" : "refused", what.c_str(), p.coverage, p.fitness,
+                       p.free_space, p.ambiguity, p.wall_residual);
         std::fprintf(stderr, "\n");
       }
     };
@@ -250,13 +263,14 @@ int main(int argc, char** argv) {
         int fa = 0;
         for (const auto& im : t.impostors) fa += im.second.found;
         out << parts[t.part].part.name << ',' << t.seed << ',' << t.points << ',' << t.ours.found << ",\""
-            << t.ours.reason << "\"," << 1e3 * t.ours_err.seam_max_m << ',' << 1e3 * t.ours_err.seam_mean_m << ','
-            << rad2deg(t.ours_err.rotation_rad) << ',' << t.ours.seconds << ',' << 1e3 * t.paper_err.seam_max_m << ','
-            << rad2deg(t.paper_err.rotation_rad) << ',' << t.paper.seconds << ',' << fa << '\n';
+            << t.ours.reason << "\"," << 1e3 * t.ours_err.seam_max_m << ',' << 1e3 * t.ours_err.seam_mean_m
+            << ',' << rad2deg(t.ours_err.rotation_rad) << ',' << t.ours.seconds << ','
+            << 1e3 * t.paper_err.seam_max_m << ',' << rad2deg(t.paper_err.rotation_rad) << ','
+            << t.paper.seconds << ',' << fa << '\n';
       }
     }
-    std::printf("%-15s %7s %9s %8s %8s %8s %8s %8s %9s %9s %8s\n", "part (method)", "trials", "success", "refused",
-                "wrong", "seam p50", "seam p95", "seam max", "rot p95", "time p50", "impost.");
+    std::printf("%-15s %7s %9s %8s %8s %8s %8s %8s %9s %9s %8s\n", "part (method)", "trials", "success",
+                "refused", "wrong", "seam p50", "seam p95", "seam max", "rot p95", "time p50", "impost.");
     int total_impostors = 0, total_false = 0;
     for (size_t p = 0; p < parts.size(); ++p)
       for (int method = 0; method < (no_paper ? 1 : 2); ++method) {
@@ -269,7 +283,8 @@ int main(int argc, char** argv) {
           ++n;
           ok += success(e, err);
           refused += !e.found;
-          wrong += e.found && !success(e, err);  // a confident wrong pose: the failure that welds the wrong place
+          wrong +=
+              e.found && !success(e, err);  // a confident wrong pose: the failure that welds the wrong place
           if (e.found) seam.push_back(1e3 * err.seam_max_m), rot.push_back(rad2deg(err.rotation_rad));
           secs.push_back(e.seconds);
           if (!method)
@@ -279,13 +294,26 @@ int main(int argc, char** argv) {
         total_false += fa;
         std::printf("%-15s %7d %8.1f%% %8d %8d %8.3f %8.3f %8.3f %9.3f %9.3f %8s\n",
                     (parts[p].part.name.substr(0, 8) + (method ? " (paper)" : " (ours)")).c_str(), n,
-                    100.0 * ok / std::max(1, n), refused, wrong, pct(seam, 0.5), pct(seam, 0.95), pct(seam, 1.0),
-                    pct(rot, 0.95), pct(secs, 0.5),
+                    100.0 * ok / std::max(1, n), refused, wrong, pct(seam, 0.5), pct(seam, 0.95),
+                    pct(seam, 1.0), pct(rot, 0.95), pct(secs, 0.5),
                     method ? "" : (std::to_string(fa) + "/" + std::to_string(imp)).c_str());
       }
-    std::printf("seam errors in mm (found poses), rotation in deg, time in s; false accepts %d of %d absent/wrong-part "
-                "cases\n",
-                total_false, total_impostors);
+    std::printf(
+        "seam errors in mm (found poses), rotation in deg, time in s; false accepts %d of %d "
+        "absent/wrong-part "
+        "cases\n",
+        total_false, total_impostors);
+    // Per-stage time of ours (median over all trials) and the two methods' time ratio on the same scans.
+    std::map<std::string, std::vector<double>> stages;
+    std::vector<double> ratio;
+    for (const Trial& t : trials) {
+      for (const auto& [name, sec] : t.ours.stage_seconds) stages[name].push_back(sec);
+      if (!no_paper && t.ours.seconds > 0) ratio.push_back(t.paper.seconds / t.ours.seconds);
+    }
+    std::printf("ours, median time per stage [s]:");
+    for (const auto& [name, v] : stages) std::printf(" %s %.3f", name.c_str(), pct(v, 0.5));
+    if (!ratio.empty()) std::printf("; paper/ours time on the same scan: median %.2fx", pct(ratio, 0.5));
+    std::printf("\n");
   } catch (const InputError& e) {
     std::fprintf(stderr, "localize_survey: %s\n", e.what());
     return 2;

@@ -11,6 +11,7 @@
 #include <unordered_map>
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
 
 #include <pcl/console/print.h>
 #include <pcl/filters/voxel_grid.h>
@@ -50,8 +51,10 @@ double median(std::vector<double> v) {
 // The table: cascaded RANSAC for near-horizontal planes on an even thinning of the scan; of the big ones, the
 // highest (the floor is bigger but lower). Refined by least squares on the full-resolution points near it;
 // the spread of those points about the plane gives the range noise. Returns false if there is none.
-bool find_table(const std::vector<Vec3>& scan, const LocalizeSetting& s, Eigen::Vector4d& plane,
-                double& noise) {
+}  // namespace
+
+bool find_table_plane(const std::vector<Vec3>& scan, const LocalizeSetting& s, Eigen::Vector4d& plane,
+                      double& noise) {
   pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);  // failures are reported as values, not on stderr
   std::vector<const Vec3*> near;
   near.reserve(scan.size());
@@ -88,7 +91,8 @@ bool find_table(const std::vector<Vec3>& scan, const LocalizeSetting& s, Eigen::
     std::unordered_map<long long, char> cells;
     for (int i : inliers.indices) {
       const auto& q = (*rest)[static_cast<size_t>(i)];
-      cells[static_cast<long long>(std::floor(q.x / 0.05)) * 100000LL + static_cast<long long>(std::floor(q.y / 0.05))] = 1;
+      cells[static_cast<long long>(std::floor(q.x / 0.05)) * 100000LL +
+            static_cast<long long>(std::floor(q.y / 0.05))] = 1;
     }
     planes.push_back({p, cells.size()});
     Cloud::Ptr next(new Cloud);
@@ -114,7 +118,8 @@ bool find_table(const std::vector<Vec3>& scan, const LocalizeSetting& s, Eigen::
   double band = s.table_threshold_m;
   std::unordered_map<long long, char> raised;
   auto cell = [](double x, double y) {
-    return static_cast<long long>(std::floor(x / 0.01)) * 1000003LL + static_cast<long long>(std::floor(y / 0.01));
+    return static_cast<long long>(std::floor(x / 0.01)) * 1000003LL +
+           static_cast<long long>(std::floor(y / 0.01));
   };
   for (int it = 0; it < 4; ++it) {
     raised.clear();
@@ -129,7 +134,8 @@ bool find_table(const std::vector<Vec3>& scan, const LocalizeSetting& s, Eigen::
     std::vector<double> res;
     for (const Vec3* q : near) {
       const double r = p.head<3>().dot(*q) + p[3];
-      if (std::abs(r) < band && !raised.count(cell(q->x(), q->y()))) in.push_back(*q), res.push_back(std::abs(r));
+      if (std::abs(r) < band && !raised.count(cell(q->x(), q->y())))
+        in.push_back(*q), res.push_back(std::abs(r));
     }
     if (in.size() < 50) break;
     for (const Vec3& q : in) c += q;
@@ -146,6 +152,41 @@ bool find_table(const std::vector<Vec3>& scan, const LocalizeSetting& s, Eigen::
   plane = p;
   return true;
 }
+
+std::vector<Vec3> voxel_centroids(const std::vector<Vec3>& points, double leaf) {
+  Cloud::Ptr out(new Cloud);
+  pcl::VoxelGrid<pcl::PointXYZ> grid;
+  grid.setInputCloud(to_cloud(points));
+  const float l = static_cast<float>(leaf);
+  grid.setLeafSize(l, l, l);
+  grid.filter(*out);
+  std::vector<Vec3> v;
+  v.reserve(out->size());
+  for (const auto& p : *out) v.emplace_back(p.x, p.y, p.z);
+  return v;
+}
+
+Iso3 planar_rigid_fit(const std::vector<Vec3>& from, const std::vector<Vec3>& to) {
+  const size_t n = std::min(from.size(), to.size());
+  if (n == 0) return Iso3::Identity();
+  Eigen::Vector2d ca = Eigen::Vector2d::Zero(), cb = Eigen::Vector2d::Zero();
+  for (size_t i = 0; i < n; ++i) ca += from[i].head<2>(), cb += to[i].head<2>();
+  ca /= static_cast<double>(n);
+  cb /= static_cast<double>(n);
+  Eigen::Matrix2d H = Eigen::Matrix2d::Zero();
+  for (size_t i = 0; i < n; ++i) H += (from[i].head<2>() - ca) * (to[i].head<2>() - cb).transpose();
+  const Eigen::JacobiSVD<Eigen::Matrix2d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix2d R = svd.matrixV() * svd.matrixU().transpose();
+  if (R.determinant() < 0) {  // a reflection is no motion: flip the weaker axis
+    Eigen::Matrix2d V = svd.matrixV();
+    V.col(1) *= -1;
+    R = V * svd.matrixU().transpose();
+  }
+  const Eigen::Vector2d t = cb - R * ca;
+  return planar_pose(t.x(), t.y(), 0.0, std::atan2(R(1, 0), R(0, 0)));
+}
+
+namespace {
 
 // A rigid transform from the table frame: z along the plane normal, origin under the base origin.
 Iso3 table_frame(const Eigen::Vector4d& plane) {
@@ -187,13 +228,14 @@ struct Grid2 {
     return i >= 0 ? value[static_cast<size_t>(i)] : std::numeric_limits<float>::infinity();
   }
   Eigen::Vector2d centre(long i) const {
-    return origin + cell * Eigen::Vector2d(static_cast<double>(i % nx) + 0.5, static_cast<double>(i / nx) + 0.5);
+    return origin +
+           cell * Eigen::Vector2d(static_cast<double>(i % nx) + 0.5, static_cast<double>(i / nx) + 0.5);
   }
 };
 
 struct Model {
-  std::vector<Vec3> pts, nrm;   // part frame, resting on z = 0; every face but the underside
-  std::vector<uint8_t> visible;  // seen from outside (a scanner above the table can see it at all)
+  std::vector<Vec3> pts, nrm;       // part frame, resting on z = 0; every face but the underside
+  std::vector<uint8_t> visible;     // seen from outside (a scanner above the table can see it at all)
   std::vector<uint8_t> view_score;  // how many of the test directions see it (more: seen more often)
   std::vector<float> half_thickness, edge_distance;
   pcl::KdTreeFLANN<pcl::PointXYZ> tree;
@@ -201,6 +243,11 @@ struct Model {
   double radius = 0.0, height = 0.0;
   std::vector<std::vector<int>> walls_by_height;  // visible wall samples (every third) per height bin
   Grid2 footprint;                                // where the part rests on the table, eroded
+  struct OutlineSample {
+    Eigen::Vector2d at, out;  // on the footprint's outline, and the outward normal there
+    double top = 0.0;         // height of the part just inside
+  };
+  std::vector<OutlineSample> outline;  // every 1 mm, away from the outline's corners
 
   // Nearest sample by a lazily filled 1 mm grid over the box (+ margin): ICP asks about the same places
   // again and again, so most lookups are one array read.
@@ -220,9 +267,9 @@ struct Model {
                           static_cast<size_t>(cx) +
                       static_cast<size_t>(ix)];
     if (slot == -2) {
-      const Vec3 c = cache_origin + cache_cell * Vec3(static_cast<double>(ix) + 0.5,
-                                                       static_cast<double>(iy) + 0.5,
-                                                       static_cast<double>(iz) + 0.5);
+      const Vec3 c =
+          cache_origin + cache_cell * Vec3(static_cast<double>(ix) + 0.5, static_cast<double>(iy) + 0.5,
+                                           static_cast<double>(iz) + 0.5);
       std::vector<int> idx(1);
       std::vector<float> d2(1);
       slot = tree.nearestKSearch(pt(c), 1, idx, d2) > 0 ? idx[0] : -1;
@@ -241,7 +288,8 @@ std::vector<Vec3> feature_edge_points(const Mesh& mesh, double min_z) {
   std::vector<int> id(mesh.vertices.size());
   for (size_t i = 0; i < mesh.vertices.size(); ++i) {
     const Vec3& v = mesh.vertices[i];
-    const std::array<long long, 3> k{std::llround(v.x() * 1e6), std::llround(v.y() * 1e6), std::llround(v.z() * 1e6)};
+    const std::array<long long, 3> k{std::llround(v.x() * 1e6), std::llround(v.y() * 1e6),
+                                     std::llround(v.z() * 1e6)};
     id[i] = ids.emplace(k, static_cast<int>(ids.size())).first->second;
   }
   std::map<std::pair<int, int>, std::vector<Vec3>> edges;
@@ -277,8 +325,8 @@ void fill_triangle(Grid2& grid, const Vec3& a, const Vec3& b, const Vec3& c) {
   auto side = [](const Vec3& p, const Vec3& q, double x, double y) {
     return (q.x() - p.x()) * (y - p.y()) - (q.y() - p.y()) * (x - p.x());
   };
-  for (double y = grid.origin.y() + grid.cell * (std::floor((y0 - grid.origin.y()) / grid.cell) + 0.5); y <= y1;
-       y += grid.cell)
+  for (double y = grid.origin.y() + grid.cell * (std::floor((y0 - grid.origin.y()) / grid.cell) + 0.5);
+       y <= y1; y += grid.cell)
     for (double x = grid.origin.x() + grid.cell * (std::floor((x0 - grid.origin.x()) / grid.cell) + 0.5);
          x <= x1; x += grid.cell) {
       const double s0 = side(a, b, x, y), s1 = side(b, c, x, y), s2 = side(c, a, x, y);
@@ -349,12 +397,61 @@ void build_model(const Mesh& mesh, double min_z, const LocalizeSetting& s, Model
     if (nn.norm() < 1e-14 || nn.normalized().z() > -0.9 || std::max({a.z(), b.z(), c.z()}) > 1e-3) continue;
     fill_triangle(model.footprint, a, b, c);
   }
-  // The height of what a scanner sees from straight above each footprint cell.
+  // The footprint's outline: edges of the underside used by one underside face only, away from corners.
+  {
+    std::map<std::array<long long, 4>, std::pair<int, Eigen::Vector2d>> edges;  // edge -> uses, outward
+    auto key2 = [](const Vec3& v) {
+      return std::array<long long, 2>{std::llround(v.x() * 1e6), std::llround(v.y() * 1e6)};
+    };
+    std::map<std::array<long long, 4>, std::pair<Vec3, Vec3>> ends;
+    for (const auto& f : rest.faces) {
+      const Vec3 v[3] = {rest.vertices[static_cast<size_t>(f[0])], rest.vertices[static_cast<size_t>(f[1])],
+                         rest.vertices[static_cast<size_t>(f[2])]};
+      const Vec3 nn = (v[1] - v[0]).cross(v[2] - v[0]);
+      if (nn.norm() < 1e-14 || nn.normalized().z() > -0.9 || std::max({v[0].z(), v[1].z(), v[2].z()}) > 1e-3)
+        continue;
+      for (int k = 0; k < 3; ++k) {
+        const Vec3 &a = v[k], &b = v[(k + 1) % 3], &o = v[(k + 2) % 3];
+        auto ka = key2(a), kb = key2(b);
+        if (kb < ka) std::swap(ka, kb);
+        const std::array<long long, 4> key{ka[0], ka[1], kb[0], kb[1]};
+        Eigen::Vector2d e = (b - a).head<2>(), out(e.y(), -e.x());
+        out.normalize();
+        if (out.dot((o - a).head<2>()) > 0) out = -out;
+        auto& entry = edges[key];
+        ++entry.first;
+        entry.second = out;
+        ends[key] = {a, b};
+      }
+    }
+    for (const auto& [key, entry] : edges) {
+      if (entry.first != 1) continue;
+      const Vec3 &a = ends[key].first, &b = ends[key].second;
+      const double len = (b - a).head<2>().norm();
+      for (double t = 0.004; t <= len - 0.004; t += 0.001) {
+        const Eigen::Vector2d at = a.head<2>() + (b - a).head<2>() * (t / len);
+        const Eigen::Vector2d inside = at - 0.003 * entry.second;
+        const double h = rays.hit(Vec3(inside.x(), inside.y(), model.height + 0.01), -Vec3::UnitZ(), 0.0);
+        if (!std::isfinite(h)) continue;
+        model.outline.push_back({at, entry.second, model.height + 0.01 - h});
+      }
+    }
+  }
+  // The lowest surface above each footprint cell that is not the underside (the inner floor of a tube, the
+  // top of a plate): the table can be seen there only if the part is not.
   for (size_t i = 0; i < model.footprint.on.size(); ++i) {
     if (!model.footprint.on[i]) continue;
     const Eigen::Vector2d xy = model.footprint.centre(static_cast<long>(i));
-    const double t = rays.hit(Vec3(xy.x(), xy.y(), model.height + 0.01), -Vec3::UnitZ(), 0.0);
-    model.footprint.value[i] = static_cast<float>(std::isfinite(t) ? model.height + 0.01 - t : 0.0);
+    const Vec3 top(xy.x(), xy.y(), model.height + 0.01);
+    double lowest = 0.0;
+    for (double t = 0.0;;) {
+      const double hit = rays.hit(top, -Vec3::UnitZ(), t);
+      if (!std::isfinite(hit)) break;
+      const double z = top.z() - hit;
+      if (z > 1e-4) lowest = z;
+      t = hit + 1e-5;
+    }
+    model.footprint.value[i] = static_cast<float>(lowest);
   }
 
   // The lazy nearest-sample grid.
@@ -363,8 +460,8 @@ void build_model(const Mesh& mesh, double min_z, const LocalizeSetting& s, Model
   model.cx = static_cast<int>(ext.x() / model.cache_cell) + 1;
   model.cy = static_cast<int>(ext.y() / model.cache_cell) + 1;
   model.cz = static_cast<int>(ext.z() / model.cache_cell) + 1;
-  model.cache.assign(static_cast<size_t>(model.cx) * static_cast<size_t>(model.cy) * static_cast<size_t>(model.cz),
-                     -2);
+  model.cache.assign(
+      static_cast<size_t>(model.cx) * static_cast<size_t>(model.cy) * static_cast<size_t>(model.cz), -2);
 }
 
 // Erodes a footprint by r cells (a cell stays on if every cell within r does).
@@ -386,11 +483,63 @@ Grid2 eroded(const Grid2& g, int r) {
 // --------------------------------------------------------------------------------------- search and refine
 
 struct Context {
+  Context(const LocalizeSetting& setting, Model& m) : s(setting), model(m) {}
   const LocalizeSetting& s;
   Model& model;
   double noise = 0.001;
   double trim = 0.0025, edge_margin = 0.002, height_cut = 0.005, inlier = 0.003;
+  // Points near the table (table frame), averaged per 2 mm cell: where the outline of a part too low for
+  // its walls to be told from the table is read from the change of height across it.
+  Grid2 low;
+  std::vector<float> low_sum;
+  std::vector<uint16_t> low_count;
+  double outline_max_top = 0.0;  // outline samples of parts at most this high are read this way
 };
+
+// For every low outline sample: walk across the outline (-8..+8 mm), classify the cells as raised (above half
+// the part's height there) or table, and put the edge where the fewest cells disagree. Adds the residual of
+// the edge found (along the outward normal) to the (yaw, x, y) normal equations.
+int add_outline_terms(Context& c, const Iso3& P, Mat3& A, Vec3& b) {
+  const Model& m = c.model;
+  if (m.outline.empty() || c.low_sum.empty()) return 0;
+  const Iso3 T = P.inverse();  // part -> table
+  int used = 0;
+  constexpr int kSteps = 17;
+  for (const Model::OutlineSample& o : m.outline) {
+    if (o.top > c.outline_max_top) continue;
+    int cls[kSteps];  // 1 raised, 0 table, -1 no data
+    int known = 0, raised = 0;
+    for (int k = 0; k < kSteps; ++k) {
+      const Eigen::Vector2d x = o.at + 0.001 * (k - kSteps / 2) * o.out;
+      const Vec3 q = T * Vec3(x.x(), x.y(), 0.0);
+      const long i = c.low.index(q.x(), q.y());
+      cls[k] = -1;
+      if (i < 0 || c.low_count[static_cast<size_t>(i)] == 0) continue;
+      cls[k] = c.low_sum[static_cast<size_t>(i)] / c.low_count[static_cast<size_t>(i)] > 0.5 * o.top;
+      ++known;
+      raised += cls[k];
+    }
+    if (known < 10 || raised == 0 || raised == known) continue;
+    // Edge between step e-1 and e: disagreements = raised cells outside + table cells inside. Where cells
+    // without returns leave a tie, they are the shadow the raised part casts on the table behind its edge:
+    // the edge is at the raised end of the gap, the innermost of the tied positions.
+    int best = 1 << 30, best_e = 0;
+    for (int e = 0; e <= kSteps; ++e) {
+      int cost = 0;
+      for (int k = 0; k < kSteps; ++k)
+        if (cls[k] >= 0) cost += (k >= e) ? cls[k] == 1 : cls[k] == 0;
+      if (cost < best) best = cost, best_e = e;
+    }
+    const double t = 0.001 * (best_e - 0.5 - kSteps / 2);  // edge offset along the outward normal
+    if (std::abs(t) > 0.006 || best > known / 4) continue;
+    const Eigen::Vector2d e2 = o.at + t * o.out;
+    const Vec3 J(e2.x() * o.out.y() - e2.y() * o.out.x(), o.out.x(), o.out.y());
+    A += J * J.transpose();
+    b -= J * t;
+    ++used;
+  }
+  return used;
+}
 
 struct Hypothesis {
   double x = 0, y = 0, yaw = 0;
@@ -410,13 +559,23 @@ struct IcpResult {
 IcpResult icp(const std::vector<Vec3>& scan, Context& c, Iso3 P, int iterations, bool thin_walls) {
   IcpResult out;
   Model& m = c.model;
-  const bool dbg = std::getenv("WELDTWIN_DEBUG_STATS") && thin_walls;
-  std::map<std::string, std::array<double, 3>> stats;
+  // Far from the answer, a few closed-form point-to-point steps (each scan point moved onto its nearest
+  // visible model sample) pull in faster and more steadily than linearized point-to-plane steps.
+  for (int it = 0; !thin_walls && it < c.s.point_to_point_iterations; ++it) {
+    std::vector<Vec3> from, to;
+    for (const Vec3& q : scan) {
+      const Vec3 p = P * q;
+      const int k = m.nearest(p);
+      if (k < 0 || !m.visible[static_cast<size_t>(k)] ||
+          (p - m.pts[static_cast<size_t>(k)]).norm() > c.s.icp_start_distance_m)
+        continue;
+      from.push_back(p);
+      to.push_back(m.pts[static_cast<size_t>(k)]);
+    }
+    if (from.size() < 20) break;
+    P = planar_rigid_fit(from, to) * P;
+  }
   for (int it = 0; it < iterations; ++it) {
-    if (dbg && it == 1)
-      for (const auto& [k, a] : stats)
-        std::fprintf(stderr, "  %s: %5.0f points, mean residual %+.3f mm, far weight %.2f\n", k.c_str(), a[1],
-                     1e3 * a[0] / a[1], a[2] / a[1]);
     const double f = iterations > 1 ? static_cast<double>(it) / (iterations - 1) : 1.0;
     const double max_d = std::max(c.trim, c.s.icp_start_distance_m + f * (c.trim - c.s.icp_start_distance_m));
     Mat3 A = Mat3::Zero();
@@ -450,16 +609,12 @@ IcpResult icp(const std::vector<Vec3>& scan, Context& c, Iso3 P, int iterations,
       b -= J * r;
       ++used;
     }
+    used += add_outline_terms(c, P, A, b);
     out.iterations = it + 1;
     if (used < 20) break;
     A += 1e-9 * Mat3::Identity();
     const Vec3 xi = A.ldlt().solve(b);
     P = planar_pose(xi.y(), xi.z(), 0.0, xi.x()) * P;
-    if (dbg) {
-      const Iso3 T = P.inverse();
-      std::fprintf(stderr, "    it %d used %d max_d %.1f mm -> %.4f %.4f %.3f deg\n", it, used, 1e3 * max_d,
-                   T.translation().x(), T.translation().y(), rad2deg(std::atan2(T.linear()(1, 0), T.linear()(0, 0))));
-    }
     if (f >= 1.0) out.converged = std::abs(xi.x()) * 0.1 + xi.tail<2>().norm() < 1e-6;
   }
   out.P = orthonormalized(P);
@@ -470,11 +625,14 @@ struct Score {
   int inliers = 0, region = 0;
   double wall_residual = 0.0;  ///< median |residual| of the points near walls, in noise sigmas
   double rmse = 0.0, coverage = 0.0, free_space = 0.0;
-  double support() const { return inliers * coverage; }
+  double max_free = 0.02;
+  /// Evidence for the pose: scan points it explains times the share of its visible surface the scan
+  /// confirms, discounted by the table seen where it would stand.
+  double support() const { return inliers * coverage * std::max(0.0, 1.0 - free_space / max_free); }
 };
 
-Score score(const std::vector<Vec3>& scan, pcl::KdTreeFLANN<pcl::PointXYZ>& scan_tree, const Grid2& table_seen,
-            const Grid2& footprint, Context& c, const Iso3& P) {
+Score score(const std::vector<Vec3>& scan, pcl::KdTreeFLANN<pcl::PointXYZ>& scan_tree, const Grid2& footprint,
+            Context& c, const Iso3& P) {
   Score out;
   Model& m = c.model;
   double sum2 = 0.0;
@@ -513,16 +671,21 @@ Score score(const std::vector<Vec3>& scan, pcl::KdTreeFLANN<pcl::PointXYZ>& scan
     if (scan_tree.nearestKSearch(pt(T * m.pts[k]), 1, idx, d2) > 0 && d2[0] < reach * reach) ++seen;
   }
   out.coverage = total ? static_cast<double>(seen) / total : 0.0;
-  // Free space: the table seen where the part would rest on it, clearly below the part's top there.
+  // Free space: the table seen where the part would rest on it, clearly below the part's lowest surface
+  // there (cells averaged, so that single noisy points do not count).
   int cells = 0, through = 0;
   for (size_t i = 0; i < footprint.on.size(); ++i) {
     if (!footprint.on[i]) continue;
     ++cells;
     const Eigen::Vector2d xy = footprint.centre(static_cast<long>(i));
     const Vec3 q = T * Vec3(xy.x(), xy.y(), 0.0);
-    through += table_seen.value_at(q.x(), q.y()) < footprint.value[i] - 3 * c.noise;
+    const long j = c.low.index(q.x(), q.y());
+    if (j < 0 || c.low_count[static_cast<size_t>(j)] == 0) continue;
+    const double mean = c.low_sum[static_cast<size_t>(j)] / c.low_count[static_cast<size_t>(j)];
+    through += mean < footprint.value[i] - 3 * c.noise;
   }
   out.free_space = cells ? static_cast<double>(through) / cells : 0.0;
+  out.max_free = c.s.max_free_space;
   return out;
 }
 
@@ -541,14 +704,15 @@ bool self_similar(Model& model, const Iso3& D) {
   return n > 0 && sum / n < 0.0015;
 }
 
-// Whether D (part frame to part frame) maps every seam point within 1 mm of some seam point.
+// Whether D (part frame to part frame) maps every seam point within 1.5 mm of some seam point (they are about
+// 1 mm apart).
 bool same_seams(const std::vector<Vec3>& seam, const Iso3& D) {
   if (seam.empty()) return false;
   for (const Vec3& p : seam) {
     const Vec3 q = D * p;
     double best = 1e9;
     for (const Vec3& r : seam) best = std::min(best, (q - r).squaredNorm());
-    if (best > 1e-6) return false;
+    if (best > 1.5e-3 * 1.5e-3) return false;
   }
   return true;
 }
@@ -589,9 +753,9 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
 
   // Table plane, range noise, and the limits that follow from the noise.
   double noise = s.min_noise_m;
-  if (!find_table(scan_base, s, out.table_plane, noise)) return finish("no table plane in the scan");
+  if (!find_table_plane(scan_base, s, out.table_plane, noise)) return finish("no table plane in the scan");
   out.noise_m = noise;
-  Context c{s, model};
+  Context c(s, model);
   c.noise = noise;
   c.trim = s.noise_trim * noise;
   c.inlier = std::max(0.0015, 2.5 * noise);
@@ -600,21 +764,23 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   const Iso3 T_base_table = table_frame(out.table_plane), T_table_base = T_base_table.inverse();
   stage("table");
 
-  // Object points above the table (table frame), and where the table itself is seen.
+  // Object points above the table (table frame), and the points near the table by cell.
   std::vector<Vec3> above;
-  Grid2 table_seen;
-  table_seen.reset(Eigen::Vector2d::Constant(-s.reach_radius_m), Eigen::Vector2d::Constant(s.reach_radius_m),
-                   0.002);
-  const double table_band = std::max(0.002, 2.5 * noise);
+  c.outline_max_top = 3 * c.height_cut;
+  c.low.reset(Eigen::Vector2d::Constant(-s.reach_radius_m), Eigen::Vector2d::Constant(s.reach_radius_m),
+              0.002);
+  c.low_sum.assign(c.low.on.size(), 0.0f);
+  c.low_count.assign(c.low.on.size(), 0);
+  const double low_top = c.outline_max_top + 3 * noise;
   for (const Vec3& p : scan_base) {
     const double rxy = p.head<2>().norm();
     if (rxy < s.base_keepout_m || rxy > s.reach_radius_m) continue;
     const Vec3 q = T_table_base * p;
-    if (std::abs(q.z()) < table_band) {
-      const long i = table_seen.index(q.x(), q.y());
-      if (i >= 0) {
-        float& low = table_seen.value[static_cast<size_t>(i)];
-        low = std::min(low, static_cast<float>(q.z()));
+    if (q.z() > -3 * noise && q.z() < low_top) {
+      const long i = c.low.index(q.x(), q.y());
+      if (i >= 0 && c.low_count[static_cast<size_t>(i)] < 60000) {
+        c.low_sum[static_cast<size_t>(i)] += static_cast<float>(q.z());
+        ++c.low_count[static_cast<size_t>(i)];
       }
     }
     if (q.z() < s.min_height_m || q.z() > model.height + 0.05) continue;
@@ -636,7 +802,8 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   for (const auto& p : *objects) scan.emplace_back(p.x, p.y, p.z);
   pcl::KdTreeFLANN<pcl::PointXYZ> scan_tree;
   scan_tree.setInputCloud(objects);
-  const Grid2 footprint = eroded(model.footprint, static_cast<int>(std::ceil(std::max(0.003, 2 * noise) / 0.002)));
+  const Grid2 footprint =
+      eroded(model.footprint, static_cast<int>(std::ceil(std::max(0.003, 2 * noise) / 0.002)));
   stage("objects");
 
   // Hough voting over (x, y, yaw): a scan wall point at height z with horizontal normal direction a, matched
@@ -661,7 +828,8 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
     for (int j : nidx) mean += scan[static_cast<size_t>(j)];
     mean /= static_cast<double>(nidx.size());
     Mat3 C = Mat3::Zero();
-    for (int j : nidx) C += (scan[static_cast<size_t>(j)] - mean) * (scan[static_cast<size_t>(j)] - mean).transpose();
+    for (int j : nidx)
+      C += (scan[static_cast<size_t>(j)] - mean) * (scan[static_cast<size_t>(j)] - mean).transpose();
     const Eigen::SelfAdjointEigenSolver<Mat3> eig(C);
     const Vec3 nn = eig.eigenvectors().col(0);
     if (std::abs(nn.z()) > 0.5) continue;
@@ -679,8 +847,8 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
           const double cy = std::cos(yaw), sy = std::sin(yaw);
           const double tx = q.x() - (cy * mp.x() - sy * mp.y()), ty = q.y() - (sy * mp.x() + cy * mp.y());
           const int iw = static_cast<int>(yaw / deg2rad(s.vote_yaw_deg)) % yaw_bins;
-          ++votes[key(static_cast<int>(std::floor(tx / s.vote_xy_m)), static_cast<int>(std::floor(ty / s.vote_xy_m)),
-                      iw)];
+          ++votes[key(static_cast<int>(std::floor(tx / s.vote_xy_m)),
+                      static_cast<int>(std::floor(ty / s.vote_xy_m)), iw)];
         }
       }
     }
@@ -706,10 +874,17 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
           const auto it = votes.find(key(ix + dx, iy + dy, (iw + dw + yaw_bins) % yaw_bins));
           if (it != votes.end()) sum += it->second;
         }
-    peaks.push_back({(ix + 0.5) * s.vote_xy_m, (iy + 0.5) * s.vote_xy_m, (iw + 0.5) * deg2rad(s.vote_yaw_deg), sum});
+    peaks.push_back(
+        {(ix + 0.5) * s.vote_xy_m, (iy + 0.5) * s.vote_xy_m, (iw + 0.5) * deg2rad(s.vote_yaw_deg), sum});
   }
-  std::stable_sort(peaks.begin(), peaks.end(), [](const auto& a, const auto& b) { return a.votes > b.votes; });
+  std::stable_sort(peaks.begin(), peaks.end(),
+                   [](const auto& a, const auto& b) { return a.votes > b.votes; });
   std::vector<Hypothesis> hyps;
+  if (s.use_initial_guess) {
+    const Iso3 T = T_table_base * s.initial_guess * make_transform(Vec3(0, 0, min_z), Mat3::Identity());
+    peaks.insert(peaks.begin(), {T.translation().x(), T.translation().y(),
+                                 std::atan2(T.linear()(1, 0), T.linear()(0, 0)), 1 << 30});
+  }
   for (const Hypothesis& h : peaks) {
     if (static_cast<int>(hyps.size()) >= s.hypotheses) break;
     bool close = false;
@@ -722,47 +897,59 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
 
   // Refinement: every peak coarsely, the best few fully. Only points high enough to be told from the table
   // take part.
-  // Each point stands in for the centroid of its neighbourhood: the noise shrinks several-fold, so a point
-  // on one side of a thin wall is no longer taken for the other side.
   std::vector<Vec3> icp_points;
-  {
-    const int k = std::getenv("SMOOTH_K") ? std::atoi(std::getenv("SMOOTH_K")) : 0;
-    std::vector<int> idx;
-    std::vector<float> d2;
-    for (const Vec3& q : scan) {
-      if (q.z() < c.height_cut) continue;
-      if (k <= 1 || scan_tree.nearestKSearch(pt(q), k, idx, d2) < 3) {
-        icp_points.push_back(q);
-        continue;
-      }
-      Vec3 mean = Vec3::Zero();
-      int n = 0;
-      for (size_t j = 0; j < idx.size(); ++j)
-        if (d2[j] < 36e-6f) mean += scan[static_cast<size_t>(idx[j])], ++n;
-      icp_points.push_back(mean / n);
-    }
-  }
+  for (const Vec3& q : scan)
+    if (q.z() >= c.height_cut) icp_points.push_back(q);
   struct Refined {
     Iso3 P;
     IcpResult icp;
     Score score;
   };
+  // The points around a pose that can move (x, y, yaw): those nearest a face that is not level (a level
+  // face's residual does not change with them).
   auto near_pose = [&](const Iso3& P) {
     std::vector<Vec3> near;
     for (const Vec3& q : icp_points) {
       const Vec3 p = P * q;
-      if (p.x() > model.lo.x() - 0.02 && p.y() > model.lo.y() - 0.02 && p.x() < model.hi.x() + 0.02 &&
-          p.y() < model.hi.y() + 0.02)
-        near.push_back(q);
+      if (p.x() < model.lo.x() - 0.02 || p.y() < model.lo.y() - 0.02 || p.x() > model.hi.x() + 0.02 ||
+          p.y() > model.hi.y() + 0.02)
+        continue;
+      const int k = model.nearest(p);
+      if (k >= 0 && std::abs(model.nrm[static_cast<size_t>(k)].z()) > 0.95 &&
+          (p - model.pts[static_cast<size_t>(k)]).norm() < 0.004)
+        continue;
+      near.push_back(q);
     }
     return near;
   };
   std::vector<Refined> coarse;
+  // A quick look at every peak (how many of a thin sample of points lie near the model there) decides
+  // which are worth refining.
+  {
+    const std::vector<Vec3> probe = thinned(icp_points, 800);
+    std::vector<std::pair<int, size_t>> quick;
+    for (size_t i = 0; i < hyps.size(); ++i) {
+      const Iso3 P0 = planar_pose(hyps[i].x, hyps[i].y, 0.0, hyps[i].yaw).inverse();
+      int near = 0;
+      for (const Vec3& q : probe) {
+        const Vec3 p = P0 * q;
+        const int k = model.nearest(p);
+        near += k >= 0 && (p - model.pts[static_cast<size_t>(k)]).squaredNorm() < 36e-6;
+      }
+      quick.emplace_back(near, i);
+    }
+    std::stable_sort(quick.begin(), quick.end(),
+                     [](const auto& a, const auto& b) { return a.first > b.first; });
+    std::vector<Hypothesis> kept;
+    for (size_t i = 0; i < quick.size() && static_cast<int>(kept.size()) < s.refined_hypotheses; ++i)
+      kept.push_back(hyps[quick[i].second]);
+    hyps.swap(kept);
+  }
   for (const Hypothesis& h : hyps) {
     const Iso3 P0 = planar_pose(h.x, h.y, 0.0, h.yaw).inverse();
-    const IcpResult r = icp(thinned(near_pose(P0), static_cast<size_t>(s.icp_max_points / 2)), c, P0,
-                            s.coarse_iterations, false);
-    coarse.push_back({r.P, r, score(scan, scan_tree, table_seen, footprint, c, r.P)});
+    const IcpResult r =
+        icp(thinned(near_pose(P0), static_cast<size_t>(s.coarse_points)), c, P0, s.coarse_iterations, false);
+    coarse.push_back({r.P, r, score(scan, scan_tree, footprint, c, r.P)});
   }
   // A pose that puts the part where the table is seen is no candidate; of the rest, the best few distinct.
   auto better = [&](const Refined& a, const Refined& b) {
@@ -780,32 +967,12 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
       dup = dup || (D.translation().norm() < 0.004 && Eigen::AngleAxisd(D.linear()).angle() < deg2rad(2));
     }
     if (dup) continue;
-    const IcpResult f = icp(thinned(near_pose(r.P), static_cast<size_t>(s.icp_max_points)), c, r.P,
-                            s.fine_iterations, true);
-    refined.push_back({f.P, f, score(scan, scan_tree, table_seen, footprint, c, f.P)});
+    const IcpResult f =
+        icp(thinned(near_pose(r.P), static_cast<size_t>(s.icp_max_points)), c, r.P, s.fine_iterations, true);
+    refined.push_back({f.P, f, score(scan, scan_tree, footprint, c, f.P)});
   }
   std::sort(refined.begin(), refined.end(), better);
-  if (const char* start = std::getenv("WELDTWIN_DEBUG_START")) {
-    double x, y, yaw;
-    std::sscanf(start, "%lf %lf %lf", &x, &y, &yaw);
-    const Iso3 P0 = planar_pose(x, y, 0, yaw).inverse();
-    const IcpResult f = icp(thinned(near_pose(P0), static_cast<size_t>(s.icp_max_points)), c, P0, s.fine_iterations, true);
-    const Iso3 T = f.P.inverse();
-    std::fprintf(stderr, "from truth: dx %.3f dy %.3f mm dyaw %.3f deg\n", 1e3 * (T.translation().x() - x),
-                 1e3 * (T.translation().y() - y), rad2deg(std::atan2(T.linear()(1, 0), T.linear()(0, 0)) - yaw));
-  }
   stage("refine");
-  if (std::getenv("WELDTWIN_LOCALIZE_DEBUG")) {
-    for (const auto* list : {&coarse, &refined})
-      for (const Refined& r : *list) {
-        const Iso3 T = r.P.inverse();
-        std::fprintf(stderr, "  %s x %.4f y %.4f yaw %.3f deg: inl %d reg %d cov %.3f free %.3f wall %.2f support %.0f its %d\n",
-                     list == &coarse ? "coarse" : "fine", T.translation().x(), T.translation().y(),
-                     rad2deg(std::atan2(T.linear()(1, 0), T.linear()(0, 0))), r.score.inliers, r.score.region,
-                     r.score.coverage, r.score.free_space, r.score.wall_residual, r.score.support(),
-                     r.icp.iterations);
-      }
-  }
   if (refined.empty()) return finish("part not found");
   const Refined& best = refined.front();
 
@@ -837,7 +1004,8 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   stage("verdict");
   if (out.free_space > s.max_free_space)
     return finish("part not found: the table is seen where the best match would stand");
-  if (out.coverage < s.min_coverage) return finish("part not found: the best match covers too little of the model");
+  if (out.coverage < s.min_coverage)
+    return finish("part not found: the best match covers too little of the model");
   if (out.fitness < s.min_fitness) return finish("the part fits the scan poorly");
   if (out.wall_residual > s.max_wall_residual)
     return finish("the part's walls fit the scan worse than the noise explains: a different part?");

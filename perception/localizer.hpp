@@ -35,24 +35,33 @@ struct LocalizeSetting {
   int vote_points = 1500;      ///< scan wall points that vote
   double vote_xy_m = 0.004;    ///< Hough bin size in x and y
   double vote_yaw_deg = 2.0;   ///< Hough bin size in yaw
-  int hypotheses = 8;          ///< Hough peaks refined coarsely
+  int hypotheses = 12;         ///< Hough peaks looked at
+  int refined_hypotheses = 5;  ///< of those, the most promising refined coarsely
   int finalists = 3;           ///< coarse results refined fully
   // Refinement: (x, y, yaw) point-to-plane ICP, trimmed symmetrically at a multiple of the range noise.
+  int point_to_point_iterations = 3;  ///< closed-form steps before the coarse point-to-plane ones
   int coarse_iterations = 12;
-  int fine_iterations = 80;
-  int icp_max_points = 3000;             ///< scan points used per ICP iteration (evenly thinned)
-  double icp_start_distance_m = 0.012;   ///< correspondence cut-off at the first ICP iteration
-  double noise_trim = 2.5;               ///< residuals beyond this many noise sigmas are not used
-  double edge_margin_sigmas = 2.0;       ///< model samples this close to a feature edge are not used
-  double height_cut_sigmas = 3.0;        ///< scan points this close to the table are not used by ICP
-  double min_noise_m = 0.0005;           ///< floor of the estimated range noise
+  int coarse_points = 2500;  ///< scan points used per coarse iteration (evenly thinned)
+  int fine_iterations = 25;
+  int icp_max_points = 12000;           ///< scan points used per ICP iteration (evenly thinned)
+  double icp_start_distance_m = 0.012;  ///< correspondence cut-off at the first ICP iteration
+  double noise_trim = 2.5;              ///< residuals beyond this many noise sigmas are not used
+  double edge_margin_sigmas =
+      2.0;  ///< model samples this close to a feature edge are not used        ///< model samples this close
+            ///< to a feature edge are not used        ///< model samples this close to a feature edge are not
+            ///< used       ///< model samples this close to a feature edge are not used
+  double height_cut_sigmas = 3.0;  ///< scan points this close to the table are not used by ICP
+  double min_noise_m = 0.0005;     ///< floor of the estimated range noise
   // Verdict.
-  double min_coverage = 0.45;      ///< fraction of the model's visible samples with scan points nearby
-  double min_fitness = 0.55;       ///< fraction of the scan points in the model's region that it explains
-  double max_free_space = 0.04;    ///< fraction of the model's footprint where the table is seen
+  double min_coverage = 0.45;       ///< fraction of the model's visible samples with scan points nearby
+  double min_fitness = 0.55;        ///< fraction of the scan points in the model's region that it explains
+  double max_free_space = 0.02;     ///< fraction of the model's footprint where the table is seen
   double max_wall_residual = 0.58;  ///< median |residual| on the walls, in table noise sigmas (a different
                                     ///< shape fits the walls worse than the noise explains)
-  double ambiguity_ratio = 0.85;   ///< a distinct pose scoring this close to the best is ambiguous
+  double ambiguity_ratio = 0.85;    ///< a distinct pose scoring this close to the best is ambiguous
+  // Optional rough pose (T_base_part) from elsewhere: refined first, beside the peaks of the global search.
+  bool use_initial_guess = false;
+  Iso3 initial_guess = Iso3::Identity();
 };
 
 struct PoseEstimate {
@@ -60,9 +69,9 @@ struct PoseEstimate {
   std::string reason;  ///< why not found: no table, no part, poor fit, ambiguous
   Iso3 T_base_part = Iso3::Identity();
   double fitness = 0.0, rmse_m = 0.0, coverage = 0.0;
-  double free_space = 0.0;  ///< fraction of the footprint where the scan sees the table through the part
-  double ambiguity = 0.0;   ///< score of the best distinct non-equivalent pose over the best's
-  double noise_m = 0.0;     ///< range noise sigma estimated from the table
+  double free_space = 0.0;     ///< fraction of the footprint where the scan sees the table through the part
+  double ambiguity = 0.0;      ///< score of the best distinct non-equivalent pose over the best's
+  double noise_m = 0.0;        ///< range noise sigma estimated from the table
   double wall_residual = 0.0;  ///< median |residual| of the scan points on the model's walls, in noise sigmas
   bool converged = false;
   int iterations = 0;
@@ -70,8 +79,22 @@ struct PoseEstimate {
   Eigen::Vector4d table_plane = Eigen::Vector4d::Zero();  ///< n.x + d = 0, n up, base frame
   int object_points = 0;                                  ///< points above the table after voxelisation
   double seconds = 0.0;
-  std::vector<std::pair<std::string, double>> stage_seconds;  ///< model, table, objects, search, refine, verdict
+  std::vector<std::pair<std::string, double>>
+      stage_seconds;  ///< model, table, objects, search, refine, verdict
 };
+
+/// The table: cascaded RANSAC for near-horizontal planes; of those spread over at least min_table_area_m2
+/// (box tops are not), the highest (the floor is lower), refined by least squares away from everything
+/// standing on it. `noise_m` is the spread of the points about it (robust sigma). False if there is none.
+bool find_table_plane(const std::vector<Vec3>& scan_base, const LocalizeSetting& setting,
+                      Eigen::Vector4d& plane, double& noise_m);
+
+/// Centroid of the points in each occupied cube of edge `leaf_m` (PCL's voxel grid).
+std::vector<Vec3> voxel_centroids(const std::vector<Vec3>& points, double leaf_m);
+
+/// The rotation about z and translation in x, y that best move `from` onto `to` (pairs, least squares,
+/// closed form by SVD of the 2x2 cross-covariance). Returns the transform applied to `from`.
+Iso3 planar_rigid_fit(const std::vector<Vec3>& from, const std::vector<Vec3>& to);
 
 /// Localizes `model` (part frame, resting on z = its lowest vertex) in `scan_base`. `seam_points` (part
 /// frame, optional) are points along the part's weld seams, about 1 mm apart: two poses that map them onto

@@ -52,7 +52,7 @@ double MeshRays::hit(const Vec3& o, const Vec3& d, double t_min, double t_max) c
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rtcIntersect1(impl_->scene, &ctx, &rh);
   return rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? std::numeric_limits<double>::infinity()
-                                                   : static_cast<double>(rh.ray.tfar);
+                                                  : static_cast<double>(rh.ray.tfar);
 }
 
 }  // namespace weldtwin

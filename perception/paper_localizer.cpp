@@ -46,7 +46,8 @@ PoseEstimate localize_paper(const std::vector<Vec3>& scan_base, const Mesh& mesh
   Cloud::Ptr cloud(new Cloud);
   for (const Vec3& p : scan_base)
     if (p.head<2>().norm() <= s.reach_radius_m)
-      cloud->push_back(pcl::PointXYZ(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())));
+      cloud->push_back(
+          pcl::PointXYZ(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())));
   // PassThrough, voxel grid, statistical outlier removal.
   Cloud::Ptr cropped(new Cloud), grid(new Cloud), clean(new Cloud);
   pcl::PassThrough<pcl::PointXYZ> pass;
@@ -125,7 +126,8 @@ PoseEstimate localize_paper(const std::vector<Vec3>& scan_base, const Mesh& mesh
   const SurfaceSamples samples = sample_surface(rest, s.voxel_m, -2.0);
   Cloud::Ptr source(new Cloud);
   for (const Vec3& p : samples.points)
-    source->push_back(pcl::PointXYZ(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())));
+    source->push_back(
+        pcl::PointXYZ(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())));
   Eigen::Vector4f c_model, c_scan;
   pcl::compute3DCentroid(*source, c_model);
   pcl::compute3DCentroid(*target, c_scan);

@@ -24,6 +24,7 @@ struct PaperSetting {
 };
 
 /// The baseline. `found` is true whenever a cluster was registered; `rmse_m` is the root of PCL's fitness.
-PoseEstimate localize_paper(const std::vector<Vec3>& scan_base, const Mesh& model, const PaperSetting& setting = {});
+PoseEstimate localize_paper(const std::vector<Vec3>& scan_base, const Mesh& model,
+                            const PaperSetting& setting = {});
 
 }  // namespace weldtwin

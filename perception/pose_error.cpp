@@ -96,6 +96,20 @@ PoseError pose_error(const PartSpec& part, const Iso3& estimate, const Iso3& tru
   }
   e.seam_mean_m = est.empty() ? 0.0 : sum / static_cast<double>(est.size());
   for (const Vec3& p : tru) e.seam_max_m = std::max(e.seam_max_m, distance_to(est_lines, p));
+  // Seams that are all full circles about one vertical axis weld the same for any turn about it: then only
+  // the tilt of that axis counts.
+  bool circles = !part.seams.empty();
+  for (const Seam& s : part.seams)
+    circles = circles && s.kind == Seam::Kind::kArc && std::abs(s.axis.z()) > 1 - 1e-9 &&
+              std::abs(std::abs(s.sweep_rad) - 2 * kPi) < 1e-6 &&
+              (s.center - part.seams.front().center).head<2>().norm() < 1e-6;
+  if (circles) {
+    const Vec3 a = estimate.linear().col(2), b = truth.linear().col(2);
+    e.rotation_rad = std::atan2(a.cross(b).norm(), a.dot(b));
+    const Vec3 c = part.seams.front().center;
+    e.origin_m = (estimate * c - truth * c).norm();
+    return e;
+  }
   e.rotation_rad = e.origin_m = std::numeric_limits<double>::infinity();
   for (int k = 0; k < std::max(1, symmetry_order); ++k) {
     const Iso3 t = truth * planar_pose(0, 0, 0, 2 * kPi * k / std::max(1, symmetry_order));
@@ -115,7 +129,8 @@ SampleTruth read_sample_truth(const std::string& file) {
   try {
     const nlohmann::json j = nlohmann::json::parse(in);
     for (size_t r = 0; r < 4; ++r)
-      for (size_t c = 0; c < 4; ++c) t.T_base_part.matrix()(static_cast<long>(r), static_cast<long>(c)) = j.at("T_base_part").at(r).at(c);
+      for (size_t c = 0; c < 4; ++c)
+        t.T_base_part.matrix()(static_cast<long>(r), static_cast<long>(c)) = j.at("T_base_part").at(r).at(c);
     for (const auto& s : j.at("seams_part")) {
       Seam seam;
       seam.name = "seam" + std::to_string(t.part.seams.size());
