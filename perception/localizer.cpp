@@ -132,10 +132,22 @@ bool find_table_plane(const std::vector<Vec3>& scan, const LocalizeSetting& s, E
     Vec3 c = Vec3::Zero();
     std::vector<Vec3> in;
     std::vector<double> res;
+    size_t in_band = 0;
     for (const Vec3* q : near) {
       const double r = p.head<3>().dot(*q) + p[3];
-      if (std::abs(r) < band && !raised.count(cell(q->x(), q->y())))
-        in.push_back(*q), res.push_back(std::abs(r));
+      if (std::abs(r) >= band) continue;
+      ++in_band;
+      if (!raised.count(cell(q->x(), q->y()))) in.push_back(*q), res.push_back(std::abs(r));
+    }
+    // Where things stand everywhere (clutter all over), the mask would leave too little: fall back to the
+    // band.
+    if (in.size() < std::max<size_t>(50, in_band / 5)) {
+      in.clear();
+      res.clear();
+      for (const Vec3* q : near) {
+        const double r = p.head<3>().dot(*q) + p[3];
+        if (std::abs(r) < band) in.push_back(*q), res.push_back(std::abs(r));
+      }
     }
     if (in.size() < 50) break;
     for (const Vec3& q : in) c += q;

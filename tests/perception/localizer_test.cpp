@@ -1,16 +1,18 @@
-// Localization, first version: the parts found in twin scans of the three cells, wrong parts never accepted,
-// the independent sample scans either found close to their truth or refused, and bad input refused cleanly.
-// (The 1 mm / 0.5 deg bar of the localization issue is not met yet on every scan; see the issue's notes.)
+// Localization: the pieces on synthetic data with known answers (voxel centroids, the table under outliers,
+// the closed-form planar step, ICP from perturbed starts), the parts found at the 1 mm / 0.5 deg bar in twin
+// scans and in the independent sample scans, wrong or missing parts refused, and bad input refused cleanly.
 #include "perception/localizer.hpp"
 
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
 #include <filesystem>
 #include <fstream>
-#include <nlohmann/json.hpp>
+#include <random>
 
 #include "core/error.hpp"
 #include "perception/cloud_io.hpp"
+#include "perception/pose_error.hpp"
 #include "perception/scan_assembly.hpp"
 #include "sim/sweep_sim.hpp"
 #include "tests/test_support.hpp"
@@ -20,85 +22,172 @@ namespace {
 
 struct TwinScan {
   std::vector<Vec3> cloud;
+  std::vector<Label> labels;
   Iso3 truth;
+  PartSpec part;
 };
 
-TwinScan twin_scan(const std::string& cell_file, std::optional<uint64_t> seed = {}) {
+// A twin scan with the default LiDAR noise, seeded like the localization survey (layout and noise seed).
+TwinScan twin_scan(const std::string& cell_file, uint64_t seed) {
   test::Cell cell(cell_file, seed);
   const SweepProgram program = SweepProgram::load(cell.spec.sweep_program, cell.robot);
   LidarSetting lidar;
-  lidar.seed = seed.value_or(1);
+  lidar.seed = seed;
   const SweepResult sweep = simulate_sweep(*cell.world, cell.robot, program, lidar);
-  return {assemble_scan(sweep.log, cell.robot).points_base, cell.layout.T_base_part};
+  const AssembledCloud a = assemble_scan(sweep.log, cell.robot);
+  TwinScan out{a.points_base, {}, cell.layout.T_base_part, cell.part};
+  for (uint32_t s : a.sample_index) out.labels.push_back(sweep.labels[s]);
+  return out;
 }
 
-// Position error of the part origin and yaw error modulo the part's symmetry (2 pi / order).
-void errors(const Iso3& a, const Iso3& b, int order, double& dt, double& dyaw) {
-  dt = (a.translation() - b.translation()).norm();
-  const double ya = std::atan2(a.linear()(1, 0), a.linear()(0, 0)),
-               yb = std::atan2(b.linear()(1, 0), b.linear()(0, 0));
-  dyaw = std::abs(std::remainder(ya - yb, 2 * kPi / order));
+constexpr double kSeamBar = 1e-3, kRotationBar = 0.5;  // the issue's success bar: m, deg
+
+TEST(Localizer, VoxelCentroidsAreTheMeansOfTheCubes) {
+  // Two points in each of three 1 cm cubes, away from the cube faces: each centroid is the pair's mean.
+  const std::vector<Vec3> points{{0.002, 0.003, 0.004}, {0.006, 0.007, 0.008}, {0.012, 0.001, 0.001},
+                                 {0.018, 0.009, 0.003}, {0.031, 0.041, 0.051}, {0.033, 0.043, 0.055}};
+  std::vector<Vec3> c = voxel_centroids(points, 0.01);
+  ASSERT_EQ(c.size(), 3u);
+  std::sort(c.begin(), c.end(), [](const Vec3& a, const Vec3& b) { return a.x() < b.x(); });
+  for (int k = 0; k < 3; ++k)
+    EXPECT_LT((c[static_cast<size_t>(k)] - 0.5 * (points[2 * k] + points[2 * k + 1])).norm(), 1e-7) << k;
 }
 
-TEST(Localizer, FindsEachPartInItsTwinScan) {
-  const std::pair<const char*, int> cells[] = {{"scenes/cells/default.yaml", 4},
-                                               {"scenes/cells/round_on_plate.yaml", 4},
-                                               {"scenes/cells/tube_tee.yaml", 1}};
-  for (const auto& [file, order] : cells) {
-    const TwinScan scan = twin_scan(file);
-    const PartSpec part = PartSpec::load(CellSpec::load(test::repo(file)).part_spec);
-    const std::vector<Vec3> seam_points = part.seam_points(0.001);
-    const PoseEstimate pose = localize(scan.cloud, load_mesh(part.mesh_path), LocalizeSetting(), seam_points);
-    ASSERT_TRUE(pose.found) << file << ": " << pose.reason;
-    double dt, dyaw;
-    errors(pose.T_base_part, scan.truth, order, dt, dyaw);
-    std::printf("%s: %.2f mm, %.3f deg, fitness %.2f, rmse %.2f mm, %.2f s\n", part.name.c_str(), 1e3 * dt,
-                rad2deg(dyaw), pose.fitness, 1e3 * pose.rmse_m, pose.seconds);
-    EXPECT_LT(dt, 0.002) << file;
-    EXPECT_LT(rad2deg(dyaw), 0.5) << file;
-    EXPECT_NEAR(pose.table_plane[3], 0.0, 0.002);  // the table top is z = 0 of the base frame
+TEST(Localizer, TablePlaneIsRecoveredUnderHalfOutliersAndAFloor) {
+  // A tilted table (1.2 x 0.8 m, 1 mm noise), a bigger floor 0.8 m below it, and as many outliers as table
+  // points spread through the volume above: the table, not the floor, to a fraction of the noise.
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::normal_distribution<double> noise(0.0, 0.001);
+  const Vec3 n = Vec3(0.01, -0.02, 1.0).normalized();
+  const double d = -0.015;  // n.x + d = 0
+  std::vector<Vec3> pts;
+  for (int i = 0; i < 20000; ++i) {
+    const double x = -0.1 + 0.8 * u(rng), y = -0.6 + 1.2 * u(rng);
+    const double z = (-d - n.x() * x - n.y() * y) / n.z();
+    pts.push_back(Vec3(x, y, z) + noise(rng) * n);
+  }
+  for (int i = 0; i < 30000; ++i)
+    pts.emplace_back(-1.1 + 2.2 * u(rng), -1.1 + 2.2 * u(rng), -0.8 + 0.001 * noise(rng));
+  for (int i = 0; i < 20000; ++i) pts.emplace_back(-0.1 + 0.8 * u(rng), -0.6 + 1.2 * u(rng), 0.5 * u(rng));
+  Eigen::Vector4d plane;
+  double sigma = 0.0;
+  ASSERT_TRUE(find_table_plane(pts, LocalizeSetting(), plane, sigma));
+  EXPECT_LT(std::acos(std::min(1.0, plane.head<3>().dot(n))), deg2rad(0.05));
+  EXPECT_NEAR(plane[3], d, 2e-4);
+  EXPECT_NEAR(sigma, 0.001, 3e-4);
+}
+
+TEST(Localizer, PlanarRigidFitRecoversAKnownMotionExactly) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    const Iso3 T = planar_pose(0.3 * u(rng), 0.3 * u(rng), 0.0, kPi * u(rng));
+    std::vector<Vec3> from, to;
+    for (int i = 0; i < 30; ++i) {
+      from.emplace_back(u(rng), u(rng), 0.1 * u(rng));
+      to.push_back(T * from.back());
+    }
+    const Iso3 fit = planar_rigid_fit(from, to);
+    EXPECT_LT((fit.matrix() - T.matrix()).norm(), 1e-12) << trial;
   }
 }
 
-TEST(Localizer, NeverAcceptsAWrongPart) {
-  const TwinScan scan = twin_scan("scenes/cells/default.yaml");  // tube_on_plate on the table
+TEST(Localizer, RefinementConvergesFromPerturbedStarts) {
+  // Only the given start is refined (one hypothesis): from up to 10 mm and 5 deg away, the tee ends within
+  // the bar every time.
+  const TwinScan scan = twin_scan("scenes/cells/tube_tee.yaml", 2);
+  const Mesh mesh = load_mesh(scan.part.mesh_path);
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 6; ++trial) {
+    LocalizeSetting s;
+    s.use_initial_guess = true;
+    s.hypotheses = 1;
+    s.initial_guess = scan.truth * planar_pose(0.01 * u(rng), 0.01 * u(rng), 0.0, deg2rad(5.0) * u(rng));
+    const PoseEstimate pose = localize(scan.cloud, mesh, s);
+    ASSERT_TRUE(pose.found) << trial << ": " << pose.reason;
+    const PoseError e = pose_error(scan.part, pose.T_base_part, scan.truth);
+    EXPECT_LT(e.seam_max_m, kSeamBar) << trial;
+    EXPECT_LT(rad2deg(e.rotation_rad), kRotationBar) << trial;
+  }
+}
+
+TEST(Localizer, FindsEachPartInSeededTwinScansAtTheBar) {
+  // Seeded cells (any yaw, clamps, clutter, default noise); the randomized survey in benchmarks/ measures
+  // the whole distribution, these pin a few cases down.
+  const std::pair<const char*, uint64_t> cases[] = {{"scenes/cells/default.yaml", 8},
+                                                    {"scenes/cells/round_on_plate.yaml", 2},
+                                                    {"scenes/cells/tube_tee.yaml", 6}};
+  for (const auto& [file, seed] : cases) {
+    const TwinScan scan = twin_scan(file, seed);
+    const Mesh mesh = load_mesh(scan.part.mesh_path);
+    const PoseEstimate pose = localize(scan.cloud, mesh, LocalizeSetting(), scan.part.seam_points(0.001));
+    ASSERT_TRUE(pose.found) << file << ": " << pose.reason;
+    const PoseError e = pose_error(scan.part, pose.T_base_part, scan.truth, z_symmetry_order(mesh));
+    std::printf("%s seed %llu: seam %.3f mm, rotation %.3f deg, %.2f s\n", scan.part.name.c_str(),
+                static_cast<unsigned long long>(seed), 1e3 * e.seam_max_m, rad2deg(e.rotation_rad),
+                pose.seconds);
+    EXPECT_LT(e.seam_max_m, kSeamBar) << file;
+    EXPECT_LT(rad2deg(e.rotation_rad), kRotationBar) << file;
+    EXPECT_NEAR(pose.table_plane[3], 0.0, 2e-4);  // the table top is z = 0 of the base frame
+  }
+}
+
+TEST(Localizer, NeverAcceptsAWrongOrMissingPart) {
+  const TwinScan scan = twin_scan("scenes/cells/default.yaml", 3);  // tube_on_plate on the table
   for (const char* wrong : {"scenes/parts/tube_tee.stl", "scenes/parts/round_on_plate.stl"}) {
     const PoseEstimate pose = localize(scan.cloud, load_mesh(test::repo(wrong)));
     EXPECT_FALSE(pose.found) << wrong;
     EXPECT_FALSE(pose.reason.empty());
   }
-  // And a table with nothing of the part's on it: the cloud without the points above the table near the part.
-  std::vector<Vec3> empty;
-  for (const Vec3& p : scan.cloud)
-    if ((p - scan.truth.translation()).head<2>().norm() > 0.2 || p.z() < 0.002) empty.push_back(p);
-  const PoseEstimate pose = localize(empty, load_mesh(test::repo("scenes/parts/tube_on_plate.stl")));
-  EXPECT_FALSE(pose.found) << "found a part that was removed";
+  // The same scene with the part's points taken out: clamps and clutter stay.
+  std::vector<Vec3> absent;
+  for (size_t i = 0; i < scan.cloud.size(); ++i)
+    if (scan.labels[i] != Label::kPart) absent.push_back(scan.cloud[i]);
+  const PoseEstimate pose = localize(absent, load_mesh(scan.part.mesh_path));
+  EXPECT_FALSE(pose.found) << "found a part that is not there";
 }
 
-TEST(Localizer, IndependentSamplesAreFoundCloseToTruthOrRefused) {
+TEST(Localizer, IndependentSamplesAreFoundAtTheBar) {
   const std::string root = std::string(WELDTWIN_SOURCE_DIR) + "/../shared/samples";
   if (!std::filesystem::is_directory(root)) GTEST_SKIP() << "no shared/samples beside the checkout";
-  int found = 0;
+  int checked = 0;
   for (const auto& dir : std::filesystem::directory_iterator(root)) {
     if (!dir.is_directory()) continue;
     const std::string d = dir.path().string();
-    nlohmann::json truth = nlohmann::json::parse(std::ifstream(d + "/truth.json"));
-    Iso3 T;
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c)
-        T.matrix()(r, c) = truth["T_base_part"][static_cast<size_t>(r)][static_cast<size_t>(c)];
-    const PoseEstimate pose = localize(read_cloud(d + "/scan.pcd"), load_mesh(d + "/part.stl"));
-    double dt, dyaw;
-    errors(pose.T_base_part, T, 1, dt, dyaw);
-    std::printf("%s: %s, %.2f mm, %.3f deg (%s)\n", dir.path().filename().c_str(),
-                pose.found ? "found" : "refused", 1e3 * dt, rad2deg(dyaw), pose.reason.c_str());
-    if (!pose.found) continue;
-    ++found;
-    // Found means close: never a confident pose centimetres away.
-    EXPECT_LT(dt, 0.005) << d;
-    EXPECT_LT(rad2deg(dyaw), 1.0) << d;
+    const SampleTruth truth = read_sample_truth(d + "/truth.json");
+    const Mesh mesh = load_mesh(d + "/part.stl");
+    const PoseEstimate pose = localize(read_cloud(d + "/scan.pcd"), mesh);
+    ASSERT_TRUE(pose.found) << d << ": " << pose.reason;
+    const PoseError e = pose_error(truth.part, pose.T_base_part, truth.T_base_part, z_symmetry_order(mesh));
+    std::printf("%s: seam %.3f mm, rotation %.3f deg\n", dir.path().filename().c_str(), 1e3 * e.seam_max_m,
+                rad2deg(e.rotation_rad));
+    EXPECT_LT(e.seam_max_m, kSeamBar) << d;
+    EXPECT_LT(rad2deg(e.rotation_rad), kRotationBar) << d;
+    ++checked;
   }
-  EXPECT_GE(found, 2);
+  EXPECT_EQ(checked, 3);
+}
+
+TEST(Localizer, PoseErrorCountsOnlyWhatMovesTheSeams) {
+  const PartSpec square = PartSpec::load(test::repo("scenes/parts/tube_on_plate.yaml"));
+  const PartSpec round = PartSpec::load(test::repo("scenes/parts/round_on_plate.yaml"));
+  const Iso3 truth = planar_pose(0.4, -0.1, 0.0, 0.3);
+  // A quarter turn of the square tube puts its seams on themselves: no error.
+  const PoseError quarter = pose_error(square, truth * planar_pose(0, 0, 0, kPi / 2), truth, 4);
+  EXPECT_LT(quarter.seam_max_m, 1e-6);
+  EXPECT_LT(quarter.rotation_rad, 1e-9);
+  // 1 deg about the origin moves the square's seam corners by ~0.5 mm; a circle about its axis not at all.
+  const PoseError turned = pose_error(square, truth * planar_pose(0, 0, 0, deg2rad(1)), truth, 4);
+  EXPECT_NEAR(turned.rotation_rad, deg2rad(1), 1e-9);
+  EXPECT_GT(turned.seam_max_m, 3e-4);
+  const PoseError circle = pose_error(round, truth * planar_pose(0, 0, 0, deg2rad(17)), truth, 4);
+  EXPECT_LT(circle.seam_max_m, 1e-5);
+  EXPECT_LT(circle.rotation_rad, 1e-9);
+  // A shift is a shift.
+  const PoseError shifted = pose_error(square, planar_pose(0.0007, 0, 0, 0) * truth, truth, 4);
+  EXPECT_NEAR(shifted.seam_max_m, 7e-4, 1e-6);
 }
 
 TEST(Localizer, BadInputIsRefusedCleanly) {
@@ -125,10 +214,59 @@ TEST(Localizer, BadInputIsRefusedCleanly) {
   for (int i = 0; i < 1000; ++i) sky.emplace_back(0.3 + 0.001 * i, 0.0, 0.5 + 0.0003 * (i % 7));
   const PoseEstimate pose = localize(sky, load_mesh(test::repo("scenes/parts/tube_tee.stl")));
   EXPECT_FALSE(pose.found);
+  EXPECT_NE(pose.reason.find("table"), std::string::npos) << pose.reason;
   // A mesh in millimetres, scaled: the same size as the one in metres.
   const Mesh m = load_mesh(test::repo("scenes/parts/tube_tee.stl"));
   const Mesh mm = load_mesh(test::repo("scenes/parts/tube_tee.stl"), 1e3);
   EXPECT_NEAR(mm.vertices[5].x(), 1e3 * m.vertices[5].x(), 1e-6);
+}
+
+// The command line on big and odd clouds: 5 million points of bare table (an answer: not found, exit 3, the
+// reason in the JSON), a cloud with no table (exit 3), an unknown method (exit 2).
+TEST(Localizer, CommandLineCopesWithFiveMillionPointsAndNoTable) {
+  const auto dir = std::filesystem::temp_directory_path() / "weldtwin_localizer_test";
+  std::filesystem::create_directories(dir);
+  const std::string big = (dir / "big.pcd").string(), sky = (dir / "sky.pcd").string();
+  auto write = [](const std::string& path, const std::vector<float>& xyz) {
+    std::ofstream out(path, std::ios::binary);
+    const size_t n = xyz.size() / 3;
+    out << "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH " << n
+        << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << n << "\nDATA binary\n";
+    out.write(reinterpret_cast<const char*>(xyz.data()),
+              static_cast<std::streamsize>(xyz.size() * sizeof(float)));
+  };
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::normal_distribution<float> noise(0.0f, 0.0015f);
+  std::vector<float> xyz;
+  xyz.reserve(15000000);
+  for (int i = 0; i < 5000000; ++i) {
+    xyz.push_back(-0.1f + 0.8f * u(rng));
+    xyz.push_back(-0.6f + 1.2f * u(rng));
+    xyz.push_back(noise(rng));
+  }
+  write(big, xyz);
+  xyz.clear();
+  for (int i = 0; i < 3000; ++i) xyz.insert(xyz.end(), {0.3f + 0.0001f * i, 0.0f, 0.5f + 0.0003f * (i % 7)});
+  write(sky, xyz);
+  const std::string model = test::repo("scenes/parts/tube_on_plate.stl");
+  auto run = [&](const std::string& scan, const std::string& extra) {
+    const std::string out = (dir / "pose.json").string();
+    std::filesystem::remove(out);
+    const std::string cmd = std::string(WELDTWIN_BINARY) + " localize -q --model " + model + " --scan " +
+                            scan + " --out " + out + " " + extra + " 2>" + (dir / "err.txt").string();
+    const int status = std::system(cmd.c_str());
+    std::ifstream in(out);
+    const std::string json((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    return std::make_pair(WEXITSTATUS(status), json);
+  };
+  const auto [big_code, big_json] = run(big, "");
+  EXPECT_EQ(big_code, 3);
+  EXPECT_NE(big_json.find("\"found\": false"), std::string::npos);
+  const auto [sky_code, sky_json] = run(sky, "");
+  EXPECT_EQ(sky_code, 3);
+  EXPECT_NE(sky_json.find("no table"), std::string::npos) << sky_json;
+  EXPECT_EQ(run(sky, "--method guess").first, 2);
 }
 
 }  // namespace
