@@ -46,12 +46,9 @@ struct LocalizeSetting {
   int icp_max_points = 12000;           ///< scan points used per ICP iteration (evenly thinned)
   double icp_start_distance_m = 0.012;  ///< correspondence cut-off at the first ICP iteration
   double noise_trim = 2.5;              ///< residuals beyond this many noise sigmas are not used
-  double edge_margin_sigmas =
-      2.0;  ///< model samples this close to a feature edge are not used        ///< model samples this close
-            ///< to a feature edge are not used        ///< model samples this close to a feature edge are not
-            ///< used       ///< model samples this close to a feature edge are not used
-  double height_cut_sigmas = 3.0;  ///< scan points this close to the table are not used by ICP
-  double min_noise_m = 0.0005;     ///< floor of the estimated range noise
+  double edge_margin_sigmas = 0.5;      ///< model samples this close to a feature edge are not used
+  double height_cut_sigmas = 3.0;       ///< scan points this close to the table are not used by ICP
+  double min_noise_m = 0.0005;          ///< floor of the estimated range noise
   // Verdict.
   double min_coverage = 0.45;       ///< fraction of the model's visible samples with scan points nearby
   double min_fitness = 0.55;        ///< fraction of the scan points in the model's region that it explains
