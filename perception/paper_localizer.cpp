@@ -87,7 +87,8 @@ PoseEstimate localize_paper(const std::vector<Vec3>& scan_base, const Mesh& mesh
   if (plane[2] < 0) plane = -plane;
   out.table_plane = plane;
   Cloud::Ptr objects(new Cloud);
-  for (const auto& p : *without(clean, table))
+  const Cloud::Ptr off_table = without(clean, table);  // kept alive: a range-for over *temporary would dangle
+  for (const auto& p : *off_table)
     if (plane.head<3>().dot(Vec3(p.x, p.y, p.z)) + plane[3] > s.plane_threshold_m) objects->push_back(p);
   for (int k = 0; k < 2 && objects->size() > 100; ++k) {
     pcl::PointIndices in;
