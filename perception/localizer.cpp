@@ -2,12 +2,14 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
 #include <map>
+#include <thread>
 #include <unordered_map>
 
 #include <Eigen/Eigenvalues>
@@ -268,25 +270,29 @@ struct Model {
   int cx = 0, cy = 0, cz = 0;
   std::vector<int> cache;
 
+  // Safe to call from several threads: a slot is filled with the same answer by whoever gets there first.
   int nearest(const Vec3& p) {
+    if (!p.allFinite()) return -1;
     const long ix = static_cast<long>((p.x() - cache_origin.x()) / cache_cell),
                iy = static_cast<long>((p.y() - cache_origin.y()) / cache_cell),
                iz = static_cast<long>((p.z() - cache_origin.z()) / cache_cell);
     if (p.x() < cache_origin.x() || p.y() < cache_origin.y() || p.z() < cache_origin.z() || ix >= cx ||
         iy >= cy || iz >= cz)
       return -1;
-    int& slot = cache[(static_cast<size_t>(iz) * static_cast<size_t>(cy) + static_cast<size_t>(iy)) *
-                          static_cast<size_t>(cx) +
-                      static_cast<size_t>(ix)];
-    if (slot == -2) {
+    int* slot = &cache[(static_cast<size_t>(iz) * static_cast<size_t>(cy) + static_cast<size_t>(iy)) *
+                           static_cast<size_t>(cx) +
+                       static_cast<size_t>(ix)];
+    int known = __atomic_load_n(slot, __ATOMIC_RELAXED);
+    if (known == -2) {
       const Vec3 c =
           cache_origin + cache_cell * Vec3(static_cast<double>(ix) + 0.5, static_cast<double>(iy) + 0.5,
                                            static_cast<double>(iz) + 0.5);
       std::vector<int> idx(1);
       std::vector<float> d2(1);
-      slot = tree.nearestKSearch(pt(c), 1, idx, d2) > 0 ? idx[0] : -1;
+      known = tree.nearestKSearch(pt(c), 1, idx, d2) > 0 ? idx[0] : -1;
+      __atomic_store_n(slot, known, __ATOMIC_RELAXED);
     }
-    return slot;
+    return known;
   }
 };
 
@@ -729,6 +735,24 @@ bool same_seams(const std::vector<Vec3>& seam, const Iso3& D) {
   return true;
 }
 
+// Runs fn(0..n-1) on up to `threads` threads (0: all cores).
+template <typename Fn>
+void parallel_for(size_t n, int threads, Fn fn) {
+  const size_t workers = std::min<size_t>(
+      n, threads > 0 ? static_cast<size_t>(threads) : std::max(1u, std::thread::hardware_concurrency()));
+  if (workers <= 1) {
+    for (size_t i = 0; i < n; ++i) fn(i);
+    return;
+  }
+  std::atomic<size_t> next{0};
+  std::vector<std::thread> pool;
+  for (size_t w = 0; w < workers; ++w)
+    pool.emplace_back([&] {
+      for (size_t i; (i = next++) < n;) fn(i);
+    });
+  for (auto& t : pool) t.join();
+}
+
 std::vector<Vec3> thinned(const std::vector<Vec3>& v, size_t max) {
   if (v.size() <= max) return v;
   std::vector<Vec3> out;
@@ -957,12 +981,13 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
       kept.push_back(hyps[quick[i].second]);
     hyps.swap(kept);
   }
-  for (const Hypothesis& h : hyps) {
-    const Iso3 P0 = planar_pose(h.x, h.y, 0.0, h.yaw).inverse();
+  coarse.resize(hyps.size());
+  parallel_for(hyps.size(), s.threads, [&](size_t i) {
+    const Iso3 P0 = planar_pose(hyps[i].x, hyps[i].y, 0.0, hyps[i].yaw).inverse();
     const IcpResult r =
         icp(thinned(near_pose(P0), static_cast<size_t>(s.coarse_points)), c, P0, s.coarse_iterations, false);
-    coarse.push_back({r.P, r, score(scan, scan_tree, footprint, c, r.P)});
-  }
+    coarse[i] = {r.P, r, score(scan, scan_tree, footprint, c, r.P)};
+  });
   // A pose that puts the part where the table is seen is no candidate; of the rest, the best few distinct.
   auto better = [&](const Refined& a, const Refined& b) {
     const bool fa = a.score.free_space <= s.max_free_space, fb = b.score.free_space <= s.max_free_space;
@@ -970,19 +995,23 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
     return a.score.support() > b.score.support();
   };
   std::sort(coarse.begin(), coarse.end(), better);
-  std::vector<Refined> refined;
+  std::vector<const Refined*> chosen;  // the best few distinct coarse poses
   for (const Refined& r : coarse) {
-    if (static_cast<int>(refined.size()) >= s.finalists) break;
+    if (static_cast<int>(chosen.size()) >= s.finalists) break;
     bool dup = false;
-    for (const Refined& o : refined) {
-      const Iso3 D = o.P * r.P.inverse();
+    for (const Refined* o : chosen) {
+      const Iso3 D = o->P * r.P.inverse();
       dup = dup || (D.translation().norm() < 0.004 && Eigen::AngleAxisd(D.linear()).angle() < deg2rad(2));
     }
-    if (dup) continue;
-    const IcpResult f =
-        icp(thinned(near_pose(r.P), static_cast<size_t>(s.icp_max_points)), c, r.P, s.fine_iterations, true);
-    refined.push_back({f.P, f, score(scan, scan_tree, footprint, c, f.P)});
+    if (!dup) chosen.push_back(&r);
   }
+  std::vector<Refined> refined(chosen.size());
+  parallel_for(chosen.size(), s.threads, [&](size_t i) {
+    const Iso3& P = chosen[i]->P;
+    const IcpResult f =
+        icp(thinned(near_pose(P), static_cast<size_t>(s.icp_max_points)), c, P, s.fine_iterations, true);
+    refined[i] = {f.P, f, score(scan, scan_tree, footprint, c, f.P)};
+  });
   std::sort(refined.begin(), refined.end(), better);
   stage("refine");
   if (refined.empty()) return finish("part not found");

@@ -56,6 +56,7 @@ struct LocalizeSetting {
   double max_wall_residual = 0.58;  ///< median |residual| on the walls, in table noise sigmas (a different
                                     ///< shape fits the walls worse than the noise explains)
   double ambiguity_ratio = 0.85;    ///< a distinct pose scoring this close to the best is ambiguous
+  int threads = 0;                  ///< hypotheses refined side by side (0: all cores)
   // Optional rough pose (T_base_part) from elsewhere: refined first, beside the peaks of the global search.
   bool use_initial_guess = false;
   Iso3 initial_guess = Iso3::Identity();
