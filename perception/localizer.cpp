@@ -574,15 +574,23 @@ struct IcpResult {
   bool converged = false;
 };
 
-IcpResult icp(const std::vector<Vec3>& scan, Context& c, Iso3 P, int iterations, bool thin_walls) {
+// A scan point, and the centroid of its neighbourhood: which model face and sample a point is matched with
+// is decided by the centroid, whose noise is a fraction of the point's own, so that the choice does not
+// depend on where the point's noise threw it (near an edge, a ray's noise moves a point both off the face and
+// along it; a choice by the point itself would keep one sign of the noise and drop the other).
+struct ScanPoint {
+  Vec3 raw, smooth;
+};
+
+IcpResult icp(const std::vector<ScanPoint>& scan, Context& c, Iso3 P, int iterations, bool thin_walls) {
   IcpResult out;
   Model& m = c.model;
   // Far from the answer, a few closed-form point-to-point steps (each scan point moved onto its nearest
   // visible model sample) pull in faster and more steadily than linearized point-to-plane steps.
   for (int it = 0; !thin_walls && it < c.s.point_to_point_iterations; ++it) {
     std::vector<Vec3> from, to;
-    for (const Vec3& q : scan) {
-      const Vec3 p = P * q;
+    for (const ScanPoint& sp : scan) {
+      const Vec3 p = P * sp.raw;
       const int k = m.nearest(p);
       if (k < 0 || !m.visible[static_cast<size_t>(k)] ||
           (p - m.pts[static_cast<size_t>(k)]).norm() > c.s.icp_start_distance_m)
@@ -599,9 +607,9 @@ IcpResult icp(const std::vector<Vec3>& scan, Context& c, Iso3 P, int iterations,
     Mat3 A = Mat3::Zero();
     Vec3 b = Vec3::Zero();
     int used = 0;
-    for (const Vec3& q : scan) {
-      const Vec3 p = P * q;
-      const int k = m.nearest(p);
+    for (const ScanPoint& sp : scan) {
+      const Vec3 p = P * sp.raw;
+      const int k = m.nearest(P * sp.smooth);
       if (k < 0) continue;
       const size_t kk = static_cast<size_t>(k);
       if (m.edge_distance[kk] < c.edge_margin) continue;
@@ -753,9 +761,10 @@ void parallel_for(size_t n, int threads, Fn fn) {
   for (auto& t : pool) t.join();
 }
 
-std::vector<Vec3> thinned(const std::vector<Vec3>& v, size_t max) {
+template <typename T>
+std::vector<T> thinned(const std::vector<T>& v, size_t max) {
   if (v.size() <= max) return v;
-  std::vector<Vec3> out;
+  std::vector<T> out;
   out.reserve(max);
   const double step = static_cast<double>(v.size()) / static_cast<double>(max);
   for (size_t i = 0; i < max; ++i) out.push_back(v[static_cast<size_t>(static_cast<double>(i) * step)]);
@@ -933,9 +942,21 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
 
   // Refinement: every peak coarsely, the best few fully. Only points high enough to be told from the table
   // take part.
-  std::vector<Vec3> icp_points;
-  for (const Vec3& q : scan)
-    if (q.z() >= c.height_cut) icp_points.push_back(q);
+  std::vector<ScanPoint> icp_points;
+  {
+    std::vector<int> idx;
+    std::vector<float> d2;
+    const float r2 = static_cast<float>(std::pow(std::max(0.004, 2 * noise), 2));
+    for (const Vec3& q : scan) {
+      if (q.z() < c.height_cut) continue;
+      Vec3 mean = Vec3::Zero();
+      int n = 0;
+      if (scan_tree.nearestKSearch(pt(q), s.smoothing_neighbours, idx, d2) > 0)
+        for (size_t j = 0; j < idx.size(); ++j)
+          if (d2[j] <= r2) mean += scan[static_cast<size_t>(idx[j])], ++n;
+      icp_points.push_back({q, n ? Vec3(mean / n) : q});
+    }
+  }
   struct Refined {
     Iso3 P;
     IcpResult icp;
@@ -944,8 +965,9 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   // The points around a pose that can move (x, y, yaw): those nearest a face that is not level (a level
   // face's residual does not change with them).
   auto near_pose = [&](const Iso3& P) {
-    std::vector<Vec3> near;
-    for (const Vec3& q : icp_points) {
+    std::vector<ScanPoint> near;
+    for (const ScanPoint& sp : icp_points) {
+      const Vec3& q = sp.raw;
       const Vec3 p = P * q;
       if (p.x() < model.lo.x() - 0.02 || p.y() < model.lo.y() - 0.02 || p.x() > model.hi.x() + 0.02 ||
           p.y() > model.hi.y() + 0.02)
@@ -954,7 +976,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
       if (k >= 0 && std::abs(model.nrm[static_cast<size_t>(k)].z()) > 0.95 &&
           (p - model.pts[static_cast<size_t>(k)]).norm() < 0.004)
         continue;
-      near.push_back(q);
+      near.push_back(sp);
     }
     return near;
   };
@@ -962,13 +984,13 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   // A quick look at every peak (how many of a thin sample of points lie near the model there) decides
   // which are worth refining.
   {
-    const std::vector<Vec3> probe = thinned(icp_points, 800);
+    const std::vector<ScanPoint> probe = thinned(icp_points, 800);
     std::vector<std::pair<int, size_t>> quick;
     for (size_t i = 0; i < hyps.size(); ++i) {
       const Iso3 P0 = planar_pose(hyps[i].x, hyps[i].y, 0.0, hyps[i].yaw).inverse();
       int near = 0;
-      for (const Vec3& q : probe) {
-        const Vec3 p = P0 * q;
+      for (const ScanPoint& sp : probe) {
+        const Vec3 p = P0 * sp.raw;
         const int k = model.nearest(p);
         near += k >= 0 && (p - model.pts[static_cast<size_t>(k)]).squaredNorm() < 36e-6;
       }

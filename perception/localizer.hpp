@@ -46,6 +46,7 @@ struct LocalizeSetting {
   int icp_max_points = 12000;           ///< scan points used per ICP iteration (evenly thinned)
   double icp_start_distance_m = 0.012;  ///< correspondence cut-off at the first ICP iteration
   double noise_trim = 2.5;              ///< residuals beyond this many noise sigmas are not used
+  int smoothing_neighbours = 8;         ///< neighbours whose centroid decides a point's match
   double edge_margin_sigmas = 0.5;      ///< model samples this close to a feature edge are not used
   double height_cut_sigmas = 3.0;       ///< scan points this close to the table are not used by ICP
   double min_noise_m = 0.0005;          ///< floor of the estimated range noise
