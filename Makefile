@@ -6,7 +6,7 @@ CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 # ccache: paths relative to the checkout, so that clones elsewhere share the cache.
 export CCACHE_BASEDIR := $(CURDIR)
 
-.PHONY: setup configure build run test bench coverage format clean
+.PHONY: setup configure build run test bench coverage localize-survey format clean
 
 setup:
 	@bash scripts/setup
@@ -36,6 +36,14 @@ coverage: build
 	  scenes/cells/tube_tee.yaml
 	$(BUILD)/benchmarks/plan_survey --layouts 100 scenes/cells/default.yaml scenes/cells/round_on_plate.yaml \
 	  scenes/cells/tube_tee.yaml
+
+# Randomized localization benchmark: 200 seeded cells per part, ours and the paper's method on the same scans,
+# 360 absent/wrong-part cases, and the independent sample scans (about half an hour on 2 cores).
+localize-survey: build
+	@mkdir -p $(OUT)
+	$(BUILD)/benchmarks/localize_survey --samples ../shared/samples
+	$(BUILD)/benchmarks/localize_survey --layouts 200 --jobs 2 --impostor-layouts 40 --csv $(OUT)/localize_survey.csv \
+	  scenes/cells/default.yaml scenes/cells/round_on_plate.yaml scenes/cells/tube_tee.yaml
 
 format:
 	@git ls-files '*.cpp' '*.hpp' | xargs clang-format -i

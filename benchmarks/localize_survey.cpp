@@ -134,7 +134,9 @@ int main(int argc, char** argv) {
     lidar_overrides[a.substr(0, eq)] = std::atof(a.c_str() + eq + 1);
   }
   try {
-    if (!samples.empty()) {
+    if (!samples.empty() && !std::filesystem::is_directory(samples)) {
+      std::fprintf(stderr, "localize_survey: no sample directory %s, skipped\n", samples.c_str());
+    } else if (!samples.empty()) {
       std::vector<std::filesystem::path> dirs;
       for (const auto& e : std::filesystem::directory_iterator(samples))
         if (e.is_directory()) dirs.push_back(e.path());

@@ -1,11 +1,14 @@
 // Finding a part in a base-frame cloud of a table scene, with figures that say how far to trust the answer.
-// The part rests on the table: the table plane (cascaded RANSAC) fixes roll, pitch and height, and the
-// remaining (x, y, yaw) is searched globally by Hough voting of oriented wall points against the model — no
-// initial guess, no region of interest. Each peak is refined by a robust (x, y, yaw) point-to-plane ICP that
-// registers the scan onto the model with noise-aware, symmetric trimming (faces the sensor never saw, thin
-// walls and feature edges bias nothing), and the verdict weighs fit, coverage of the model, free space
-// (table seen where the part would stand) and ambiguity between distinct poses (poses the part's own
-// symmetry, or its seams, map onto each other are equal).
+// The part rests on the table: the table plane (cascaded RANSAC, refitted away from what stands on it) fixes
+// roll, pitch and height and gives the range noise sigma, which sets every later threshold. The remaining
+// (x, y, yaw) is searched globally by Hough voting of oriented wall points against the model — no initial
+// guess, no region of interest — and the most promising peaks are refined by an (x, y, yaw) point-to-plane
+// ICP that registers the scan onto the model with symmetric trimming: faces no scanner can see, samples near
+// feature edges and the less-seen side of thin walls are left out, matches are chosen by neighbourhood
+// centroids, and walls too low to tell from the table are read from the height step across the outline. The
+// verdict weighs coverage, fitness, free space (table seen where the part would stand), the walls' residual
+// against the noise, and ambiguity between distinct poses (poses the part's own symmetry, or its seams, map
+// onto each other are equal).
 #pragma once
 
 #include <string>

@@ -1,0 +1,78 @@
+#!/usr/bin/env python3
+"""Whole-process time of `weldtwin localize` (start-up, reading, localizing, writing) on the sample scans,
+ours and the paper's method, as a user runs it. The samples are ASCII PCD; each is also converted to binary
+PCD (same points) so that the reader's share shows. Prints the median of REPEATS runs per case.
+
+    benchmarks/localize_timing.py [--weldtwin build/app/weldtwin] [--samples ../shared/samples] [--repeats 5]
+"""
+import argparse
+import os
+import statistics
+import struct
+import subprocess
+import tempfile
+import time
+
+
+def to_binary_pcd(src, dst):
+    points, data = [], False
+    with open(src) as f:
+        for line in f:
+            if data:
+                parts = line.split()
+                if len(parts) >= 3:
+                    points.append(tuple(float(v) for v in parts[:3]))
+            elif line.startswith("DATA"):
+                data = True
+    with open(dst, "wb") as out:
+        n = len(points)
+        out.write(("# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                   f"WIDTH {n}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA binary\n").encode())
+        for p in points:
+            out.write(struct.pack("<3f", *p))
+    return len(points)
+
+
+def wall_time(cmd):
+    t0 = time.perf_counter()
+    rc = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL).returncode
+    return time.perf_counter() - t0, rc
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--weldtwin", default="build/app/weldtwin")
+    ap.add_argument("--samples", default="../shared/samples")
+    ap.add_argument("--repeats", type=int, default=5)
+    args = ap.parse_args()
+    tmp = tempfile.mkdtemp(prefix="weldtwin_timing_")
+    rows = []
+    for name in sorted(os.listdir(args.samples)):
+        d = os.path.join(args.samples, name)
+        if not os.path.isdir(d):
+            continue
+        binary = os.path.join(tmp, name + ".pcd")
+        n = to_binary_pcd(os.path.join(d, "scan.pcd"), binary)
+        for fmt, scan in (("ascii", os.path.join(d, "scan.pcd")), ("binary", binary)):
+            for method in ("ours", "paper"):
+                cmd = [args.weldtwin, "localize", "-q", "--model", os.path.join(d, "part.stl"), "--scan", scan,
+                       "--out", os.path.join(tmp, "pose.json"), "--method", method]
+                times = []
+                for _ in range(args.repeats):
+                    t, rc = wall_time(cmd)
+                    times.append(t)
+                rows.append((name, n, fmt, method, statistics.median(times), rc))
+    start, _ = wall_time([args.weldtwin, "--help"])
+    print(f"process start-up alone (weldtwin --help): {start:.3f} s")
+    print(f"{'sample':28} {'points':>7} {'format':>7} {'method':>6} {'median s':>9} exit")
+    for name, n, fmt, method, t, rc in rows:
+        print(f"{name:28} {n:7d} {fmt:>7} {method:>6} {t:9.3f} {rc}")
+    for fmt in ("ascii", "binary"):
+        ours = [r[4] for r in rows if r[2] == fmt and r[3] == "ours"]
+        paper = [r[4] for r in rows if r[2] == fmt and r[3] == "paper"]
+        print(f"{fmt}: ours median {statistics.median(ours):.3f} s, paper median {statistics.median(paper):.3f} s, "
+              f"paper/ours {statistics.median(paper) / statistics.median(ours):.2f}x")
+
+
+if __name__ == "__main__":
+    main()
