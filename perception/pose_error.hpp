@@ -18,7 +18,7 @@ struct PoseError {
   double seam_mean_m = 0.0;   ///< mean over the estimate's seam points of the distance to the true seams
   double rotation_rad = 0.0;  ///< angle of R_true^-1 R_est, least over the part's z symmetries (for seams
                               ///< that are full circles about one vertical axis: the tilt of that axis only)
-  double origin_m = 0.0;  ///< distance between the part origins (after the best symmetry)
+  double origin_m = 0.0;      ///< distance between the part origins (after the best symmetry)
 };
 
 /// Rotational symmetry order of `mesh` about its z axis through the origin: the largest N in 1..8 such that
