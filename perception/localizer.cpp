@@ -118,13 +118,16 @@ bool find_table_plane(const std::vector<Vec3>& scan, const LocalizeSetting& s, E
   // from above only; the table points next to them (1 cm cells, and their neighbours) are left out.
   Eigen::Vector4d p = table->plane;
   double band = s.table_threshold_m;
-  std::unordered_map<long long, char> raised;
-  auto cell = [](double x, double y) {
-    return static_cast<long long>(std::floor(x / 0.01)) * 1000003LL +
-           static_cast<long long>(std::floor(y / 0.01));
+  // 1 cm cells over the reach (a dense grid: the same cells as floor(x / 1 cm), without hashing).
+  const long half = static_cast<long>(std::ceil(s.reach_radius_m / 0.01)) + 2, side = 2 * half + 1;
+  std::vector<uint8_t> raised(static_cast<size_t>(side * side));
+  auto cell = [&](double x, double y) {
+    const long ix = static_cast<long>(std::floor(x / 0.01)) + half,
+               iy = static_cast<long>(std::floor(y / 0.01)) + half;
+    return static_cast<size_t>(std::clamp(iy, 0L, side - 1) * side + std::clamp(ix, 0L, side - 1));
   };
   for (int it = 0; it < 4; ++it) {
-    raised.clear();
+    std::fill(raised.begin(), raised.end(), 0);
     for (const Vec3* q : near) {
       const double r = p.head<3>().dot(*q) + p[3];
       if (r > band && r < 0.5)
@@ -139,7 +142,7 @@ bool find_table_plane(const std::vector<Vec3>& scan, const LocalizeSetting& s, E
       const double r = p.head<3>().dot(*q) + p[3];
       if (std::abs(r) >= band) continue;
       ++in_band;
-      if (!raised.count(cell(q->x(), q->y()))) in.push_back(*q), res.push_back(std::abs(r));
+      if (!raised[cell(q->x(), q->y())]) in.push_back(*q), res.push_back(std::abs(r));
     }
     // Where things stand everywhere (clutter all over), the mask would leave too little: fall back to the
     // band.
