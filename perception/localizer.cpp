@@ -240,10 +240,6 @@ struct Grid2 {
     if (ix < 0 || iy < 0 || ix >= nx || iy >= ny) return -1;
     return iy * nx + ix;
   }
-  float value_at(double x, double y) const {
-    const long i = index(x, y);
-    return i >= 0 ? value[static_cast<size_t>(i)] : std::numeric_limits<float>::infinity();
-  }
   Eigen::Vector2d centre(long i) const {
     return origin +
            cell * Eigen::Vector2d(static_cast<double>(i % nx) + 0.5, static_cast<double>(i / nx) + 0.5);

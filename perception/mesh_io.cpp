@@ -75,17 +75,6 @@ SurfaceSamples sample_surface(const Mesh& mesh, double spacing_m, double min_nor
 
 namespace weldtwin {
 
-SurfaceSamples externally_visible(const Mesh& mesh, const SurfaceSamples& samples) {
-  const MeshRays rays(mesh);
-  SurfaceSamples out;
-  for (size_t i = 0; i < samples.points.size(); ++i)
-    if (seen_from_outside(rays, samples.points[i], samples.normals[i])) {
-      out.points.push_back(samples.points[i]);
-      out.normals.push_back(samples.normals[i]);
-    }
-  return out;
-}
-
 int orient_outward(Mesh& mesh) {
   const MeshRays rays(mesh);
   auto crossings = [&](const Vec3& o, const Vec3& d) {
@@ -132,12 +121,6 @@ std::vector<Vec3> test_directions(const Vec3& n) {
 }
 
 }  // namespace
-
-bool seen_from_outside(const MeshRays& rays, const Vec3& point, const Vec3& n) {
-  for (const Vec3& d : test_directions(n))
-    if (d.dot(n) > 0.0 && !std::isfinite(rays.hit(point, d.normalized()))) return true;
-  return false;
-}
 
 int view_directions(const MeshRays& rays, const Vec3& point, const Vec3& n) {
   int count = 0;

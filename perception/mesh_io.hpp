@@ -28,19 +28,13 @@ struct SurfaceSamples {
 /// table).
 SurfaceSamples sample_surface(const Mesh& mesh, double spacing_m, double min_normal_z = -0.7);
 
-/// The samples a scanner above the table can see at all: from each, some ray out along its normal, tilted up
-/// by 0, 30 or 60 deg, or straight up, leaves the part without hitting it (a part's underside and the depths
-/// of a tube are dropped, so the scan is never pulled onto faces it cannot have seen).
-SurfaceSamples externally_visible(const Mesh& mesh, const SurfaceSamples& samples);
-
 class MeshRays;
 /// Turns every face of a closed mesh to face outwards (a ray leaving along its normal crosses the surface an
 /// even number of times; the majority of three such rays decides). Returns the number of faces turned.
 int orient_outward(Mesh& mesh);
-/// The test behind externally_visible() for one point with outward normal `n`.
-bool seen_from_outside(const MeshRays& rays, const Vec3& point, const Vec3& n);
-/// How many of those test directions (along the normal, tilted up by 30 and 60 deg, straight up) leave the
-/// part: 0 for a hidden face, more for a face a sweep sees from more places.
+/// How many of the test directions from a surface point with outward normal `n` (along the normal, tilted
+/// up by 30 and 60 deg, straight up) leave the part without hitting it: 0 for a face no scanner above the
+/// table can see (an underside, the depths of a tube), more for a face a sweep sees from more places.
 int view_directions(const MeshRays& rays, const Vec3& point, const Vec3& n);
 
 }  // namespace weldtwin
