@@ -2,15 +2,68 @@
 
 #include <embree3/rtcore.h>
 
+#include <cmath>
 #include <limits>
 #include <stdexcept>
 
 namespace weldtwin {
 
+namespace {
+
+// The point of triangle (a, b, c) nearest to p: by the region of the triangle's plane p projects into
+// (a vertex, an edge, or the face), using barycentric tests on the edge vectors.
+Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const Vec3 bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + ab * (d1 / (d1 - d3));
+  const Vec3 cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + ac * (d2 / (d2 - d6));
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+  const double denom = 1.0 / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+}  // namespace
+
 struct MeshRays::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
+  std::vector<Vec3> vertices;
+  std::vector<Eigen::Vector3i> faces;
 };
+
+namespace {
+
+struct NearestQuery {
+  const std::vector<Vec3>* vertices;
+  const std::vector<Eigen::Vector3i>* faces;
+  Vec3 p;
+  double best_sq;
+};
+
+bool nearest_triangle(RTCPointQueryFunctionArguments* args) {
+  auto* q = static_cast<NearestQuery*>(args->userPtr);
+  const Eigen::Vector3i& f = (*q->faces)[args->primID];
+  const std::vector<Vec3>& v = *q->vertices;
+  const Vec3 c =
+      closest_on_triangle(q->p, v[static_cast<size_t>(f[0])], v[static_cast<size_t>(f[1])], v[static_cast<size_t>(f[2])]);
+  const double d2 = (c - q->p).squaredNorm();
+  if (d2 >= q->best_sq) return false;
+  q->best_sq = d2;
+  args->query->radius = static_cast<float>(std::sqrt(d2));
+  return true;
+}
+
+}  // namespace
 
 MeshRays::MeshRays(const Mesh& mesh) : impl_(std::make_unique<Impl>()) {
   impl_->device = rtcNewDevice("threads=1,verbose=0");
@@ -26,6 +79,8 @@ MeshRays::MeshRays(const Mesh& mesh) : impl_(std::make_unique<Impl>()) {
   for (size_t i = 0; i < mesh.faces.size(); ++i)
     for (int k = 0; k < 3; ++k) f[3 * i + static_cast<size_t>(k)] = static_cast<unsigned>(mesh.faces[i][k]);
   rtcCommitGeometry(geom);
+  impl_->vertices = mesh.vertices;
+  impl_->faces = mesh.faces;
   rtcAttachGeometry(impl_->scene, geom);
   rtcReleaseGeometry(geom);
   rtcCommitScene(impl_->scene);
@@ -53,6 +108,31 @@ double MeshRays::hit(const Vec3& o, const Vec3& d, double t_min, double t_max) c
   rtcIntersect1(impl_->scene, &ctx, &rh);
   return rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? std::numeric_limits<double>::infinity()
                                                   : static_cast<double>(rh.ray.tfar);
+}
+
+double MeshRays::distance(const Vec3& p, double max_m) const {
+  RTCPointQuery query{};
+  query.x = static_cast<float>(p.x());
+  query.y = static_cast<float>(p.y());
+  query.z = static_cast<float>(p.z());
+  query.radius = static_cast<float>(max_m);
+  RTCPointQueryContext ctx;
+  rtcInitPointQueryContext(&ctx);
+  NearestQuery nearest{&impl_->vertices, &impl_->faces, p, max_m * max_m};
+  rtcPointQuery(impl_->scene, &query, &ctx, nearest_triangle, &nearest);
+  return nearest.best_sq < max_m * max_m ? std::sqrt(nearest.best_sq) : std::numeric_limits<double>::infinity();
+}
+
+bool MeshRays::inside(const Vec3& p) const {
+  // An oblique direction, so that the ray does not run along the axis-aligned edges parts are made of.
+  const Vec3 d = Vec3(0.1234, 0.2345, 0.9642).normalized();
+  int crossings = 0;
+  for (double t = 0.0; crossings < 1000; ++crossings) {
+    const double next = hit(p, d, t + 1e-7);
+    if (!std::isfinite(next)) break;
+    t = next;
+  }
+  return crossings % 2 == 1;
 }
 
 }  // namespace weldtwin

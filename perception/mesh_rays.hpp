@@ -1,5 +1,6 @@
 // Rays against one triangle mesh through Embree: what the localizer asks of a part model (is a face seen from
-// outside, how thick is the material behind it) at a million rays a second instead of a triangle loop.
+// outside, how thick is the material behind it) at a million rays a second instead of a triangle loop, and
+// what the replay asks of it (how close is the torch, is it inside) by Embree's point queries.
 #pragma once
 
 #include <memory>
@@ -17,6 +18,10 @@ class MeshRays {
 
   /// Distance along unit `d` from `o` to the first triangle beyond `t_min`, or +inf if none before `t_max`.
   double hit(const Vec3& o, const Vec3& d, double t_min = 1e-5, double t_max = 1e30) const;
+  /// Distance from `p` to the nearest point of the surface, or +inf when nothing is within `max_m`.
+  double distance(const Vec3& p, double max_m) const;
+  /// Whether `p` is inside the (closed) mesh: the parity of the surface crossings along a ray.
+  bool inside(const Vec3& p) const;
 
  private:
   struct Impl;

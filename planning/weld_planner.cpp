@@ -83,6 +83,7 @@ class Builder {
       std::array<double, 8> worst;
       worst.fill(std::numeric_limits<double>::infinity());
       std::array<JointVector, 8> last, first;
+      std::array<std::vector<JointVector>, 8> stations_q;  // for the collision test of a winner
       // Stations along the stretch, plus its approach (k = -1) and departure (k = stations + 1) poses.
       for (int k = -1; k <= stations + 1; ++k) {
         const Iso3 pose = k < 0          ? backed_off(g.tcp(s0, roll), set_.approach_m)
@@ -97,6 +98,7 @@ class Builder {
             m = -1.0;
           worst[static_cast<size_t>(b)] = std::min(worst[static_cast<size_t>(b)], m);
           if (s.valid) last[static_cast<size_t>(b)] = s.q;
+          if (set_.collision && m >= 0) stations_q[static_cast<size_t>(b)].push_back(s.q);
           if (k < 0) first[static_cast<size_t>(b)] = s.q;
         }
         // Stop on this roll once no branch can still win.
@@ -107,11 +109,98 @@ class Builder {
       for (int b = 0; b < 8; ++b) {
         const double m = worst[static_cast<size_t>(b)] + (b == prefer_branch ? 0.05 : 0.0);
         if (worst[static_cast<size_t>(b)] < 0 || m <= best.margin) continue;
+        if (collides(stations_q[static_cast<size_t>(b)])) continue;
         best = {true, roll, b, m, first[static_cast<size_t>(b)]};
       }
       if (any_will_do && best.ok) return best;  // feasibility is all the caller asks
     }
     return best;
+  }
+
+  // Whether any of the configurations collides with the cell (never, without a collision test).
+  bool collides(const std::vector<JointVector>& qs, std::string* what = nullptr) const {
+    if (!set_.collision) return false;
+    for (const JointVector& q : qs) {
+      std::string hit = set_.collision(q);
+      if (hit.empty()) continue;
+      if (what) *what = std::move(hit);
+      return true;
+    }
+    return false;
+  }
+
+  // The collision, if any, of the samples from index `from` on (every other one: 10 ms apart).
+  std::string collision_since(size_t from) const {
+    std::string what;
+    if (!set_.collision) return what;
+    for (size_t k = from; k < plan_.samples.size(); k += 2)
+      if (!(what = set_.collision(plan_.samples[k].q)).empty()) break;
+    return what;
+  }
+
+  // A transit to `to` (an approach's first pose, or home) that does not hit the cell: straight in joint
+  // space if that is free; otherwise back along the torch axis from here, across in joint space, and in
+  // along the torch axis to `to`.
+  bool transit(const JointVector& to, const std::string& what) {
+    const size_t n0 = plan_.samples.size();
+    const JointVector q0 = q_;
+    const double t0 = t_;
+    joint_move(to);
+    std::string hit = collision_since(n0);
+    if (hit.empty()) return true;
+    plan_.samples.resize(n0);
+    q_ = q0;
+    t_ = t0;
+    const Iso3 here = ik_.fk(q_), there = ik_.fk(to);
+    for (const bool vertical : {true, false}) {
+      // Straight up above both poses, or back along the torch axis (how the torch reached them).
+      Iso3 up_here = backed_off(here, set_.transit_lift_m), up_there = backed_off(there, set_.transit_lift_m);
+      if (vertical) {
+        up_here = here;
+        up_there = there;
+        const double top = std::max(here.translation().z(), there.translation().z()) + set_.transit_lift_m;
+        up_here.translation().z() = top;
+        up_there.translation().z() = top;
+      }
+      const size_t p0 = plan_.problems.size();
+      const int saved = branch_;
+      branch_ = branch_of(here, q_);
+      bool ok = branch_ >= 0 && line(here, up_here, Phase::kTransit, what);
+      if (ok && (branch_ = branch_of(there, to)) >= 0) {
+        // Across at the top in joint space, to the configuration of `to`'s own branch above it.
+        const IkSolution above = ik_.solve_branch(up_there, branch_, to[5]);
+        ok = above.valid && above.within_limits;
+        if (ok) {
+          JointVector q_above = above.q;
+          for (int j = 0; j < 6; ++j) q_above[j] = to[j] + std::remainder(q_above[j] - to[j], 2.0 * kPi);
+          joint_move(q_above);
+          ok = line(up_there, there, Phase::kTransit, what) && (q_ - to).cwiseAbs().maxCoeff() < 1e-6;
+        }
+      } else {
+        ok = false;
+      }
+      branch_ = saved;
+      plan_.problems.resize(p0);
+      std::string lifted_hit;
+      if (ok && (lifted_hit = collision_since(n0)).empty()) return true;
+      plan_.samples.resize(n0);
+      q_ = q0;
+      t_ = t0;
+    }
+    problem(what + ": collides with " + hit + " (straight, and lifted up or back along the torch too)");
+    return false;
+  }
+
+  // The IK branch that puts the TCP at T with the configuration q, or -1.
+  int branch_of(const Iso3& T, const JointVector& q) const {
+    for (int b = 0; b < 8; ++b) {
+      const IkSolution s = ik_.solve_branch(T, b, q[5]);
+      if (!s.valid) continue;
+      bool same = true;
+      for (int j = 0; j < 6; ++j) same &= std::abs(std::remainder(s.q[j] - q[j], 2.0 * kPi)) < 1e-6;
+      if (same) return b;
+    }
+    return -1;
   }
 
   void problem(const std::string& what) { plan_.problems.push_back(what); }
@@ -407,12 +496,7 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
             break;
         }
         b.set_branch(c.branch);
-        if (!b.checked(
-                [&] {
-                  b.joint_move(c.q_start);
-                  return true;
-                },
-                false, "transit to " + what))
+        if (!b.checked([&] { return b.transit(c.q_start, "transit to " + what); }, false, "transit to " + what))
           break;
         if (!b.checked(
                 [&] {
@@ -429,7 +513,7 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
         break;
       at_corner = true;
       const bool next_joins =
-          i + 1 < part.seams.size() && k + 1 == pieces.size() &&
+          setting.weld_through_corners && i + 1 < part.seams.size() && k + 1 == pieces.size() &&
           (g.point(g.length) - T_base_part * part.seams[i + 1].start).norm() < setting.corner_tolerance_m;
       if (!next_joins) {
         const Iso3 here = plan.samples.back().T_base_tcp;
@@ -456,12 +540,7 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
           false, "final departure");
     }
     if (plan.problems.empty())
-      b.checked(
-          [&] {
-            b.joint_move(setting.home);
-            return true;
-          },
-          false, "transit home");
+      b.checked([&] { return b.transit(setting.home, "transit home"); }, false, "transit home");
   }
   if (plan.problems.empty()) plan.problems = check_joint_limits(plan.samples, robot, setting.sample_hz);
   return plan;

@@ -2,10 +2,12 @@
 // trajectory of the Aubo i5 that realises them: transit (joint space) -> approach along the torch axis (arc
 // off) -> the seam (arc on) -> corner transitions where seams meet -> departure -> ... -> home. Free torch
 // rolls are chosen for the largest joint-limit and singularity margin; circular seams that J6 cannot follow
-// in one go are split with a re-grip. Every sample is checked against the joint limits after IK; what cannot
+// in one go are split with a re-grip; with a collision test from the cell, branches and rolls that would
+// hit the table, clamps or clutter are not chosen and transits are lifted over obstacles. Every sample is checked against the joint limits after IK; what cannot
 // be welded is reported by seam name with the reason, never slowed down or dropped silently.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -23,9 +25,17 @@ struct PlanSetting {
   double limit_fraction = 0.5;         ///< transits and corners use this fraction of the joint limits
   double roll_step_rad = deg2rad(30);  ///< candidate free rolls are tried at this spacing
   double corner_tolerance_m = 1e-3;    ///< seams closer than this at end/start are welded through the corner
+  /// Turn the torch on the spot where seams meet, arc on. Off by default: at a sharp outside corner (a square
+  /// tube on its plate) the nozzle sweeps into the walls while it turns (the replay's clearance shows it).
+  bool weld_through_corners = false;
   double min_margin_rad = deg2rad(3);  ///< joint-limit margin a free-roll choice must keep
   double min_singularity_sine = 0.08;  ///< how far (IkSolution margins) a choice must stay from singularities
   JointVector home = (JointVector() << 0, 0, kPi / 2, 0, kPi / 2, 0).finished();  ///< start and end [rad]
+  /// What the arm at q collides with ("" when free), from whoever knows the cell (the twin's
+  /// CollisionChecker). When set, IK branches and torch rolls whose stations collide are not chosen, and a
+  /// transit that would collide is lifted above the table instead. Unset: no collision checks.
+  std::function<std::string(const JointVector&)> collision;
+  double transit_lift_m = 0.15;  ///< how far a lifted transit backs off along the torch axis at both ends
 };
 
 enum class Phase { kTransit, kApproach, kWeld, kCorner, kDeparture };

@@ -133,7 +133,7 @@ def tube_on_plate():
     ]
     fp = [(-plate_half, -plate_half), (plate_half, -plate_half), (plate_half, plate_half), (-plate_half, plate_half)]
     write_stl(os.path.join(OUT, "tube_on_plate.stl"), tris, "weldtwin tube_on_plate")
-    write_spec("tube_on_plate", seams, plate_corner_sites(plate_half, 0.014, plate_t), fp, plate_t + height,
+    write_spec("tube_on_plate", seams, plate_corner_sites(plate_half, 0.010, plate_t), fp, plate_t + height,
                "2 in square tube (3.2 mm wall, 100 mm) standing on a 160 x 160 x 8 mm plate; 4 fillet seams.")
 
 
@@ -146,7 +146,7 @@ def round_on_plate():
                   radius_m=radius, sweep_deg=360, normal=(0, 0, 1), wall_normal="radial")]
     fp = [(-plate_half, -plate_half), (plate_half, -plate_half), (plate_half, plate_half), (-plate_half, plate_half)]
     write_stl(os.path.join(OUT, "round_on_plate.stl"), tris, "weldtwin round_on_plate")
-    write_spec("round_on_plate", seams, plate_corner_sites(plate_half, 0.014, plate_t), fp, plate_t + height,
+    write_spec("round_on_plate", seams, plate_corner_sites(plate_half, 0.010, plate_t), fp, plate_t + height,
                "2 in NPS pipe (60.3 mm OD, 3.9 mm wall, 100 mm, %d facets) on a 160 x 160 x 8 mm plate; one "
                "circular fillet seam." % n)
 

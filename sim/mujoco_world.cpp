@@ -147,7 +147,7 @@ void clamp_xml(std::ostringstream& os, int index, const ClampPlacement& c) {
   os << ">\n";
   cylinder_geom(os, n + "_pad", Vec3(0, 0, 0.004), ClampDims::kPadRadius, 0.004, "0.1 0.1 0.1 1");
   cylinder_geom(os, n + "_spindle", Vec3(0, 0, 0.028), 0.005, 0.020, "0.75 0.75 0.72 1");
-  box_geom(os, n + "_arm", Vec3(0.045, 0, 0.052), Vec3(0.055, 0.012, 0.006));
+  box_geom(os, n + "_arm", Vec3(0.048, 0, 0.052), Vec3(0.052, 0.012, 0.006));
   box_geom(os, n + "_post", Vec3(0.09, 0, 0.5 * (0.058 - h)), Vec3(0.012, 0.015, 0.5 * (h + 0.058)));
   box_geom(os, n + "_base", Vec3(0.5 * (ClampDims::kBaseStart + ClampDims::kBaseEnd), 0, -h + 0.006),
            Vec3(0.5 * (ClampDims::kBaseEnd - ClampDims::kBaseStart), ClampDims::kHalfWidth, 0.006));
@@ -233,6 +233,24 @@ std::string compose_cell_mjcf(const CellSpec& cell, const PartSpec& part, const 
   for (size_t i = 0; i < layout.clutter.size(); ++i)
     clutter_xml(bodies, static_cast<int>(i), layout.clutter[i]);
   env.insert(world_end, bodies.str());
+
+  // The arm's servos (gains are set by whoever drives them: the replay tunes them to the arm's inertia).
+  std::ostringstream act;
+  act << "<actuator>\n";
+  for (const auto& joint : robot.joint_names())
+    act << "<position name=\"servo_" << joint << "\" joint=\"" << joint << "\" kp=\"1\"/>\n"
+        << "<velocity name=\"damper_" << joint << "\" joint=\"" << joint << "\" kv=\"1\"/>\n";
+  act << "</actuator>\n<contact>\n";
+  // Neighbouring links overlap at their joints by construction; MuJoCo only filters parent-child pairs
+  // below a moving body, and the first link hangs from the fixed base.
+  for (const RobotLink& link : robot.links())
+    if (link.parent >= 0)
+      act << "<exclude body1=\"" << robot.links()[static_cast<size_t>(link.parent)].name << "\" body2=\""
+          << link.name << "\"/>\n";
+  act << "</contact>\n";
+  const size_t model_end = env.rfind("</mujoco>");
+  if (model_end == std::string::npos) throw input_error(cell.environment_mjcf, "MJCF has no </mujoco>");
+  env.insert(model_end, act.str());
 
   const std::string mesh = "<mesh name=\"part_mesh\" file=\"" +
                            std::filesystem::absolute(part.mesh_path).lexically_normal().string() + "\"/>\n";

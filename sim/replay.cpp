@@ -1,0 +1,374 @@
+#include "sim/replay.hpp"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <stdexcept>
+#include <thread>
+
+#include "perception/mesh_rays.hpp"
+
+namespace weldtwin {
+namespace {
+
+// Joint reference between 200 Hz samples: cubic Hermite through the samples with central-difference
+// velocities, so that position, velocity and acceleration are all defined for the servos and feed-forward.
+class JointReference {
+ public:
+  explicit JointReference(const std::vector<PlanSample>& s) : s_(s), v_(s.size(), JointVector::Zero()) {
+    const size_t n = s.size();
+    for (size_t k = 0; k < n; ++k) {
+      if (n < 2) break;
+      const size_t a = k == 0 ? 0 : k - 1, b = k + 1 == n ? n - 1 : k + 1;
+      const double dt = s[b].t_s - s[a].t_s;
+      if (dt > 0) v_[k] = (s[b].q - s[a].q) / dt;
+    }
+    v_.front().setZero();  // plans start and end at rest
+    v_.back().setZero();
+  }
+
+  void at(double t, JointVector& q, JointVector& qd, JointVector& qdd) {
+    while (k_ + 1 < s_.size() && s_[k_ + 1].t_s <= t) ++k_;
+    if (k_ + 1 >= s_.size() || t <= s_.front().t_s) {
+      q = t <= s_.front().t_s ? s_.front().q : s_.back().q;
+      qd.setZero();
+      qdd.setZero();
+      return;
+    }
+    const double h = s_[k_ + 1].t_s - s_[k_].t_s;
+    const double u = (t - s_[k_].t_s) / h;
+    const JointVector &p0 = s_[k_].q, &p1 = s_[k_ + 1].q;
+    const JointVector m0 = v_[k_] * h, m1 = v_[k_ + 1] * h;
+    const double u2 = u * u, u3 = u2 * u;
+    q = (2 * u3 - 3 * u2 + 1) * p0 + (u3 - 2 * u2 + u) * m0 + (-2 * u3 + 3 * u2) * p1 + (u3 - u2) * m1;
+    qd = ((6 * u2 - 6 * u) * p0 + (3 * u2 - 4 * u + 1) * m0 + (-6 * u2 + 6 * u) * p1 + (3 * u2 - 2 * u) * m1) / h;
+    qdd = ((12 * u - 6) * p0 + (6 * u - 4) * m0 + (-12 * u + 6) * p1 + (6 * u - 2) * m1) / (h * h);
+  }
+
+ private:
+  const std::vector<PlanSample>& s_;
+  std::vector<JointVector> v_;
+  size_t k_ = 0;
+};
+
+// Points on the surface of a primitive geom, in the geom's frame, about `spacing` apart.
+std::vector<Vec3> geom_surface_points(int type, const double* size, double spacing) {
+  std::vector<Vec3> pts;
+  auto steps = [&](double len) { return std::max(1, static_cast<int>(std::ceil(len / spacing))); };
+  if (type == mjGEOM_CYLINDER || type == mjGEOM_CAPSULE) {
+    const double r = size[0], hz = size[1];
+    const int na = std::max(8, steps(2 * kPi * r)), nz = steps(2 * hz);
+    for (int i = 0; i <= nz; ++i)
+      for (int a = 0; a < na; ++a) {
+        const double th = 2 * kPi * a / na;
+        pts.emplace_back(r * std::cos(th), r * std::sin(th), -hz + 2 * hz * i / nz);
+      }
+    for (double z : {-hz, hz})
+      for (int ir = 1, nr = steps(r); ir < nr; ++ir) {
+        const double rr = r * ir / nr;
+        const int n = std::max(6, steps(2 * kPi * rr));
+        for (int a = 0; a < n; ++a) pts.emplace_back(rr * std::cos(2 * kPi * a / n), rr * std::sin(2 * kPi * a / n), z);
+      }
+    if (type == mjGEOM_CAPSULE)
+      for (double z : {-hz - r, hz + r}) pts.emplace_back(0, 0, z);
+  } else if (type == mjGEOM_BOX) {
+    for (int axis = 0; axis < 3; ++axis) {
+      const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+      const int nu = steps(2 * size[u]), nv = steps(2 * size[v]);
+      for (double side : {-1.0, 1.0})
+        for (int i = 0; i <= nu; ++i)
+          for (int j = 0; j <= nv; ++j) {
+            Vec3 p;
+            p[axis] = side * size[axis];
+            p[u] = -size[u] + 2 * size[u] * i / nu;
+            p[v] = -size[v] + 2 * size[v] * j / nv;
+            pts.push_back(p);
+          }
+    }
+  } else if (type == mjGEOM_SPHERE) {
+    const int n = std::max(12, static_cast<int>(4 * kPi * size[0] * size[0] / (spacing * spacing)));
+    for (int i = 0; i < n; ++i) {  // Fibonacci sphere
+      const double z = 1 - 2 * (i + 0.5) / n, rho = std::sqrt(1 - z * z), th = kPi * (3 - std::sqrt(5.0)) * i;
+      pts.emplace_back(size[0] * rho * std::cos(th), size[0] * rho * std::sin(th), size[0] * z);
+    }
+  }
+  return pts;
+}
+
+// A robot geom cut into chunks that are tested as a whole first (one point query for the chunk's centre).
+struct Chunk {
+  int geom = 0;
+  Vec3 center = Vec3::Zero();  ///< geom frame
+  double radius = 0.0;
+  std::vector<Vec3> points;  ///< geom frame
+};
+
+std::vector<Chunk> make_chunks(const mjModel* m, int geom, double spacing, double chunk_m) {
+  const std::vector<Vec3> pts = geom_surface_points(m->geom_type[geom], m->geom_size + 3 * geom, spacing);
+  std::map<std::array<int, 3>, Chunk> cells;
+  for (const Vec3& p : pts) {
+    const std::array<int, 3> key{static_cast<int>(std::floor(p.x() / chunk_m)),
+                                 static_cast<int>(std::floor(p.y() / chunk_m)),
+                                 static_cast<int>(std::floor(p.z() / chunk_m))};
+    cells[key].points.push_back(p);
+  }
+  std::vector<Chunk> chunks;
+  for (auto& [key, c] : cells) {
+    c.geom = geom;
+    for (const Vec3& p : c.points) c.center += p;
+    c.center /= static_cast<double>(c.points.size());
+    for (const Vec3& p : c.points) c.radius = std::max(c.radius, (p - c.center).norm());
+    chunks.push_back(std::move(c));
+  }
+  return chunks;
+}
+
+Vec3 geom_to_base(const mjData* d, int g, const Vec3& p) {
+  const double* x = d->geom_xpos + 3 * g;
+  const double* R = d->geom_xmat + 9 * g;
+  return Vec3(x[0] + R[0] * p.x() + R[1] * p.y() + R[2] * p.z(), x[1] + R[3] * p.x() + R[4] * p.y() + R[5] * p.z(),
+              x[2] + R[6] * p.x() + R[7] * p.y() + R[8] * p.z());
+}
+
+std::string geom_name(const mjModel* m, int g) {
+  const char* n = mj_id2name(m, mjOBJ_GEOM, g);
+  return n ? n : "geom" + std::to_string(g);
+}
+
+std::string fmt(const char* f, double a, double b = 0.0) {
+  char buf[160];
+  std::snprintf(buf, sizeof buf, f, a, b);
+  return buf;
+}
+
+}  // namespace
+
+double distance_to_seam(const PartSpec& part, int seam, const Iso3& T_base_part, const Vec3& p) {
+  const Seam& s = part.seams.at(static_cast<size_t>(seam));
+  const Vec3 q = T_base_part.inverse() * p;
+  const int n = s.kind == Seam::Kind::kLine ? 1 : std::max(8, static_cast<int>(std::ceil(s.length_m() / 2e-4)));
+  double best = std::numeric_limits<double>::infinity();
+  Vec3 a = s.point_at(0.0);
+  for (int i = 1; i <= n; ++i) {
+    const Vec3 b = s.point_at(static_cast<double>(i) / n);
+    const Vec3 ab = b - a;
+    const double len2 = ab.squaredNorm();
+    const double u = len2 > 0 ? std::clamp((q - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+    best = std::min(best, (a + u * ab - q).norm());
+    a = b;
+  }
+  return best;
+}
+
+ReplayResult replay_plan(const MujocoWorld& world, const RobotModel& robot, const WeldPlan& plan,
+                         const PartSpec& part, const Mesh& part_mesh, const Iso3& T_base_part_true,
+                         const ReplaySetting& setting) {
+  if (plan.samples.empty()) throw std::invalid_argument("replay: the plan has no samples");
+  const auto t_start = std::chrono::steady_clock::now();
+  install_mujoco_handlers();
+  // The replay model: implicit integration at the replay step; the part takes no part in MuJoCo's contacts
+  // (its collision shape would be its convex hull) — its exact mesh is checked below instead.
+  ModelPtr model(mj_copyModel(nullptr, world.model()));
+  mjModel* m = model.get();
+  m->opt.timestep = setting.timestep_s;
+  m->opt.integrator = mjINT_IMPLICIT;
+  for (int g = 0; g < m->ngeom; ++g)
+    if (world.geom_label(g) == Label::kPart) m->geom_contype[g] = m->geom_conaffinity[g] = 0;
+  // The feed-forward model: the arm alone, no contacts or limits (a controller knows only its own arm).
+  ModelPtr ref_model(mj_copyModel(nullptr, m));
+  ref_model->opt.disableflags |= mjDSBL_CONSTRAINT;
+  DataPtr d(mj_makeData(m)), dref(mj_makeData(ref_model.get()));
+
+  const int n = robot.dof();
+  std::vector<int> dof(static_cast<size_t>(n)), servo(static_cast<size_t>(n)), damper(static_cast<size_t>(n));
+  for (int j = 0; j < n; ++j) {
+    const std::string& name = robot.joint_names()[static_cast<size_t>(j)];
+    dof[static_cast<size_t>(j)] = m->jnt_dofadr[mj_name2id(m, mjOBJ_JOINT, name.c_str())];
+    servo[static_cast<size_t>(j)] = mj_name2id(m, mjOBJ_ACTUATOR, ("servo_" + name).c_str());
+    damper[static_cast<size_t>(j)] = mj_name2id(m, mjOBJ_ACTUATOR, ("damper_" + name).c_str());
+    if (servo[static_cast<size_t>(j)] < 0 || damper[static_cast<size_t>(j)] < 0)
+      throw std::logic_error("the cell model has no servo for joint " + name);
+  }
+  const int tcp_body = world.body("tcp");
+
+  // Servo gains from each joint's inertia at the start pose: kp = I w^2, kv = 2 zeta I w.
+  world.set_joints(d.get(), plan.samples.front().q);
+  mj_forward(m, d.get());
+  std::vector<mjtNum> M(static_cast<size_t>(m->nv * m->nv));
+  mj_fullM(m, M.data(), d->qM);
+  const double w = 2 * kPi * setting.bandwidth_hz;
+  for (int j = 0; j < n; ++j) {
+    const int v = dof[static_cast<size_t>(j)];
+    const double inertia = M[static_cast<size_t>(v * m->nv + v)];
+    const double kp = inertia * w * w, kv = 2 * setting.damping_ratio * inertia * w;
+    const int a = servo[static_cast<size_t>(j)], b = damper[static_cast<size_t>(j)];
+    m->actuator_gainprm[a * mjNGAIN] = kp;
+    m->actuator_biasprm[a * mjNBIAS + 1] = -kp;
+    m->actuator_gainprm[b * mjNGAIN] = kv;
+    m->actuator_biasprm[b * mjNBIAS + 2] = -kv;
+  }
+
+  ReplayResult out;
+  out.samples.resize(plan.samples.size());
+  JointReference ref(plan.samples);
+  JointVector q, qd, qdd;
+  std::map<std::pair<int, int>, ReplayContact> contacts;
+  const double t_end = plan.samples.back().t_s;
+  const long steps = static_cast<long>(std::ceil(t_end / setting.timestep_s)) + 1;
+  size_t next = 0;
+  for (long i = 0; i <= steps && next < plan.samples.size(); ++i) {
+    const double t = d->time;
+    // Record every plan sample whose time has come (the state now is the state at t).
+    while (next < plan.samples.size() && plan.samples[next].t_s <= t + 0.5 * setting.timestep_s) {
+      ReplaySample& r = out.samples[next];
+      const PlanSample& p = plan.samples[next];
+      r.t_s = p.t_s;
+      r.q_ref = p.q;
+      for (int j = 0; j < n; ++j) r.q[j] = d->qpos[world.qpos_adr()[static_cast<size_t>(j)]];
+      r.tcp_ref = p.T_base_tcp.translation();
+      r.tcp = Vec3(d->xpos[3 * tcp_body], d->xpos[3 * tcp_body + 1], d->xpos[3 * tcp_body + 2]);
+      r.seam = p.seam;
+      r.arc = p.arc;
+      ++next;
+    }
+    ref.at(t, q, qd, qdd);
+    for (int j = 0; j < n; ++j) {
+      const int v = dof[static_cast<size_t>(j)];
+      dref->qpos[world.qpos_adr()[static_cast<size_t>(j)]] = q[j];
+      dref->qvel[v] = qd[j];
+      dref->qacc[v] = qdd[j];
+    }
+    mj_inverse(ref_model.get(), dref.get());
+    for (int j = 0; j < n; ++j) {
+      const int v = dof[static_cast<size_t>(j)];
+      d->ctrl[servo[static_cast<size_t>(j)]] = q[j];
+      d->ctrl[damper[static_cast<size_t>(j)]] = qd[j];
+      d->qfrc_applied[v] = dref->qfrc_inverse[v];
+    }
+    mj_step(m, d.get());
+    for (int c = 0; c < d->ncon; ++c) {
+      const mjContact& con = d->contact[c];
+      if (con.dist > 0) continue;
+      int g1 = con.geom1, g2 = con.geom2;
+      const bool r1 = world.geom_label(g1) == Label::kRobot, r2 = world.geom_label(g2) == Label::kRobot;
+      if (!r1 && !r2) continue;
+      if (!r1) std::swap(g1, g2);
+      ReplayContact& rc = contacts[{g1, g2}];
+      if (rc.steps == 0) {
+        rc.robot_geom = geom_name(m, g1);
+        rc.other_geom = geom_name(m, g2);
+        rc.other = world.geom_label(g2);
+        rc.first_t_s = d->time;
+      }
+      rc.last_t_s = d->time;
+      rc.max_depth_m = std::max(rc.max_depth_m, -con.dist);
+      ++rc.steps;
+    }
+  }
+  for (auto& [key, c] : contacts) out.contacts.push_back(c);
+
+  // Clearance of every robot geom to the part's exact mesh, at every plan sample, on all cores: chunks of
+  // each geom's surface are skipped whole when their centre is far from the part.
+  Mesh mesh_base = part_mesh;
+  for (Vec3& v : mesh_base.vertices) v = T_base_part_true * v;
+  const MeshRays rays(mesh_base);
+  std::vector<Chunk> chunks;
+  for (int g = 0; g < m->ngeom; ++g)
+    if (world.geom_label(g) == Label::kRobot) {
+      std::vector<Chunk> c = make_chunks(m, g, 0.003, 0.03);
+      chunks.insert(chunks.end(), std::make_move_iterator(c.begin()), std::make_move_iterator(c.end()));
+    }
+  const double range = setting.clearance_range_m;
+  std::atomic<size_t> next_sample{0};
+  auto clearance_worker = [&] {
+    DataPtr dk(mj_makeData(m));
+    for (size_t k; (k = next_sample.fetch_add(1)) < out.samples.size();) {
+      ReplaySample& r = out.samples[k];
+      world.set_joints(dk.get(), r.q);
+      double best = range;
+      int best_geom = -1;
+      Vec3 best_point = Vec3::Zero();
+      for (const Chunk& c : chunks) {
+        const double dc = rays.distance(geom_to_base(dk.get(), c.geom, c.center), best + c.radius);
+        if (!std::isfinite(dc) || dc - c.radius >= best) continue;
+        for (const Vec3& p : c.points) {
+          const Vec3 pb = geom_to_base(dk.get(), c.geom, p);
+          const double dp = rays.distance(pb, best);
+          if (dp < best) {
+            best = dp;
+            best_geom = c.geom;
+            best_point = pb;
+          }
+        }
+      }
+      if (best_geom >= 0 && best < 0.005 && rays.inside(best_point)) best = -best;
+      r.clearance_m = best;
+      r.clearance_geom = best_geom >= 0 ? geom_name(m, best_geom) : "";
+    }
+  };
+  const unsigned threads = std::max(1u, std::min(4u, std::thread::hardware_concurrency()));
+  std::vector<std::thread> pool;
+  for (unsigned i = 1; i < threads; ++i) pool.emplace_back(clearance_worker);
+  clearance_worker();
+  for (auto& th : pool) th.join();
+
+  // Figures.
+  out.seams.resize(part.seams.size());
+  for (size_t s = 0; s < part.seams.size(); ++s) out.seams[s].name = part.seams[s].name;
+  out.min_clearance_m = std::numeric_limits<double>::infinity();
+  double worst_seam_t = 0.0;
+  int worst_seam = -1;
+  double worst_track_t = 0.0;
+  for (ReplaySample& r : out.samples) {
+    out.max_tracking_rad = std::max(out.max_tracking_rad, (r.q - r.q_ref).cwiseAbs().maxCoeff());
+    if (r.clearance_m < out.min_clearance_m) {
+      out.min_clearance_m = r.clearance_m;
+      out.min_clearance_geom = r.clearance_geom;
+      out.min_clearance_t_s = r.t_s;
+    }
+    if (!r.arc || r.seam < 0) continue;
+    const double track = (r.tcp - r.tcp_ref).norm();
+    if (track > out.max_tcp_tracking_m) {
+      out.max_tcp_tracking_m = track;
+      worst_track_t = r.t_s;
+    }
+    // The nearest true seam: a pose turned by the part's symmetry welds the same seams in another order.
+    r.seam_error_m = std::numeric_limits<double>::infinity();
+    for (size_t s = 0; s < part.seams.size(); ++s)
+      r.seam_error_m = std::min(r.seam_error_m, distance_to_seam(part, static_cast<int>(s), T_base_part_true, r.tcp));
+    SeamFigure& f = out.seams[static_cast<size_t>(r.seam)];
+    ++f.samples;
+    f.rms_error_m += r.seam_error_m * r.seam_error_m;
+    f.max_error_m = std::max(f.max_error_m, r.seam_error_m);
+    if (r.seam_error_m > out.max_seam_error_m) {
+      out.max_seam_error_m = r.seam_error_m;
+      worst_seam_t = r.t_s;
+      worst_seam = r.seam;
+    }
+  }
+  for (SeamFigure& f : out.seams)
+    if (f.samples > 0) f.rms_error_m = std::sqrt(f.rms_error_m / f.samples);
+
+  // Verdict.
+  for (const ReplayContact& c : out.contacts)
+    out.failures.push_back("contact: " + c.robot_geom + " with " + c.other_geom + " (" + label_name(c.other) +
+                           fmt(") from t = %.2f s, %.1f mm deep", c.first_t_s, 1e3 * c.max_depth_m));
+  if (worst_seam >= 0 && out.max_seam_error_m > setting.max_seam_error_m)
+    out.failures.push_back("seam '" + part.seams[static_cast<size_t>(worst_seam)].name + "': the torch is " +
+                           fmt("%.2f mm from the true seam at t = %.2f s", 1e3 * out.max_seam_error_m, worst_seam_t));
+  if (out.min_clearance_m < setting.min_clearance_m)
+    out.failures.push_back(out.min_clearance_geom + (out.min_clearance_m < 0 ? " enters the part" : " touches the part") +
+                           fmt(" at t = %.2f s (clearance %.1f mm)", out.min_clearance_t_s, 1e3 * out.min_clearance_m));
+  if (out.max_tcp_tracking_m > setting.max_tracking_m)
+    out.failures.push_back(fmt("tracking: the TCP is %.2f mm off the plan while welding at t = %.2f s",
+                               1e3 * out.max_tcp_tracking_m, worst_track_t));
+  out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  return out;
+}
+
+}  // namespace weldtwin

@@ -1,0 +1,110 @@
+// Replay of weld plans in the twin: a plan made at the true pose lands on the seams; a plan made at a pose
+// 2 mm off misses them by 2 mm and fails; a plan driven through a clamp fails with the clamp named.
+#include "sim/replay.hpp"
+
+#include <gtest/gtest.h>
+
+#include "planning/ik_aubo.hpp"
+#include "sim/collision_check.hpp"
+#include "tests/test_support.hpp"
+
+namespace weldtwin {
+namespace {
+
+TEST(Replay, DistanceToSeamIsExactForALineAndAnArc) {
+  const PartSpec round = PartSpec::load(test::repo("scenes/parts/round_on_plate.yaml"));
+  const Iso3 T = planar_pose(0.4, 0.1, 0.0, 0.7);
+  for (size_t s = 0; s < round.seams.size(); ++s) {
+    const Seam& seam = round.seams[s];
+    for (double f : {0.0, 0.3, 0.77, 1.0}) {
+      const Vec3 on = T * seam.point_at(f);
+      EXPECT_NEAR(distance_to_seam(round, static_cast<int>(s), T, on), 0.0, 1e-6);
+      // 3 mm along the reference surface's normal (perpendicular to the seam everywhere).
+      const Vec3 off = T * (seam.point_at(f) + 0.003 * seam.normal.normalized());
+      EXPECT_NEAR(distance_to_seam(round, static_cast<int>(s), T, off), 0.003, 2e-5);
+    }
+  }
+}
+
+TEST(Replay, APlanAtTheTruePoseLandsOnTheSeamsWithoutContacts) {
+  const test::Cell cell;
+  const Mesh mesh = load_mesh(cell.part.mesh_path);
+  PlanSetting setting;
+  setting.collision = CollisionChecker(*cell.world);
+  const WeldPlan plan = plan_welds(cell.part, cell.layout.T_base_part, cell.robot, setting);
+  ASSERT_TRUE(plan.ok()) << plan.problems.front();
+  const ReplayResult r = replay_plan(*cell.world, cell.robot, plan, cell.part, mesh, cell.layout.T_base_part);
+  EXPECT_TRUE(r.passed()) << (r.failures.empty() ? "" : r.failures.front());
+  ASSERT_EQ(r.samples.size(), plan.samples.size());
+  EXPECT_TRUE(r.contacts.empty());
+  EXPECT_LT(r.max_seam_error_m, 2e-4);
+  EXPECT_LT(r.max_tracking_rad, deg2rad(0.05));
+  // The torch stays clear of the part, but it is close while welding (a few millimetres, not metres).
+  EXPECT_GT(r.min_clearance_m, 0.001);
+  EXPECT_LT(r.min_clearance_m, 0.012);
+  int arc = 0;
+  for (const ReplaySample& s : r.samples) arc += s.arc;
+  int counted = 0;
+  for (const SeamFigure& f : r.seams) {
+    EXPECT_GT(f.samples, 0) << f.name;
+    EXPECT_LE(f.rms_error_m, f.max_error_m + 1e-12);
+    counted += f.samples;
+  }
+  EXPECT_EQ(counted, arc);
+}
+
+TEST(Replay, APlanFromAPoseTwoMillimetresOffMissesTheSeamsByThatMuch) {
+  const test::Cell cell;
+  const Mesh mesh = load_mesh(cell.part.mesh_path);
+  Iso3 wrong = cell.layout.T_base_part;
+  wrong.translation() += Vec3(-0.002, 0.0, 0.0);
+  PlanSetting setting;
+  setting.collision = CollisionChecker(*cell.world);
+  const WeldPlan plan = plan_welds(cell.part, wrong, cell.robot, setting);
+  ASSERT_TRUE(plan.ok()) << plan.problems.front();
+  const ReplayResult r = replay_plan(*cell.world, cell.robot, plan, cell.part, mesh, cell.layout.T_base_part);
+  EXPECT_FALSE(r.passed());
+  // Seams along x are not moved by an x shift; those across it are moved by 2 mm.
+  EXPECT_NEAR(r.max_seam_error_m, 0.002, 2e-4);
+  bool named = false;
+  for (const std::string& f : r.failures) named |= f.find("from the true seam") != std::string::npos;
+  EXPECT_TRUE(named);
+}
+
+TEST(Replay, APlanThroughAClampFailsWithTheClampNamed) {
+  const test::Cell cell;
+  ASSERT_FALSE(cell.layout.clamps.empty());
+  const Mesh mesh = load_mesh(cell.part.mesh_path);
+  // A straight joint-space move from home down through the first clamp's arm, torch pointing down, and back:
+  // the TCP (the wire's end) 30 mm below the arm's middle puts the nozzle into the arm.
+  const Iso3 T_base_clamp = cell.layout.clamps.front().T_base_clamp;
+  const Vec3 target = T_base_clamp * Vec3(0.045, 0.0, 0.052 - 0.03);
+  const Iso3 T_base_tcp = make_transform(target, Eigen::AngleAxisd(kPi, Vec3::UnitX()).toRotationMatrix());
+  WeldPlan plan;
+  const PlanSetting setting;
+  const AuboIk ik(cell.robot, "tcp");
+  JointVector goal;
+  ASSERT_TRUE(ik.nearest(T_base_tcp, setting.home, goal));
+  const int n = 1200;  // 6 s at 200 Hz: there and back, smoothly
+  for (int k = 0; k <= n; ++k) {
+    const double u = 0.5 - 0.5 * std::cos(2 * kPi * k / n);
+    PlanSample s;
+    s.t_s = k / 200.0;
+    s.q = setting.home + u * (goal - setting.home);
+    s.T_base_tcp = cell.robot.forward_kinematics(s.q, cell.robot.require_link("tcp"));
+    plan.samples.push_back(s);
+  }
+  const ReplayResult r = replay_plan(*cell.world, cell.robot, plan, cell.part, mesh, cell.layout.T_base_part);
+  const ReplaySample& mid = r.samples[r.samples.size() / 2];
+  EXPECT_NEAR((mid.tcp_ref - target).norm(), 0.0, 1e-6);
+  EXPECT_FALSE(r.passed());
+  bool clamp = false;
+  for (const ReplayContact& c : r.contacts) clamp |= c.other == Label::kClamp && c.other_geom.rfind("clamp0", 0) == 0;
+  EXPECT_TRUE(clamp);
+  bool named = false;
+  for (const std::string& f : r.failures) named |= f.find("contact:") == 0 && f.find("clamp0") != std::string::npos;
+  EXPECT_TRUE(named) << (r.failures.empty() ? "no failures" : r.failures.front());
+}
+
+}  // namespace
+}  // namespace weldtwin
