@@ -13,6 +13,31 @@
 
 namespace weldtwin {
 
+nlohmann::json pose_to_json(const PoseEstimate& pose) {
+  nlohmann::json out;
+  out["T_base_part"] = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r)
+    out["T_base_part"].push_back({pose.T_base_part.matrix()(r, 0), pose.T_base_part.matrix()(r, 1),
+                                  pose.T_base_part.matrix()(r, 2), pose.T_base_part.matrix()(r, 3)});
+  out["found"] = pose.found;
+  out["reason"] = pose.reason;
+  out["fitness"] = pose.fitness;
+  out["rmse_m"] = pose.rmse_m;
+  out["coverage"] = pose.coverage;
+  out["free_space"] = pose.free_space;
+  out["wall_residual_sigmas"] = pose.wall_residual;
+  out["noise_m"] = pose.noise_m;
+  out["stage_seconds"] = nlohmann::json::object();
+  for (const auto& [stage, sec] : pose.stage_seconds) out["stage_seconds"][stage] = sec;
+  out["ambiguity"] = pose.ambiguity;
+  out["converged"] = pose.converged;
+  out["iterations"] = pose.iterations;
+  out["inliers"] = pose.inliers;
+  out["table_plane"] = {pose.table_plane[0], pose.table_plane[1], pose.table_plane[2], pose.table_plane[3]};
+  out["object_points"] = pose.object_points;
+  return out;
+}
+
 int run_localize(const LocalizeCommand& cmd) {
   if (cmd.units != "m" && cmd.units != "mm") throw input_error(cmd.model, "--units must be m or mm");
   const Mesh mesh = load_mesh(cmd.model, cmd.units == "mm" ? 1e-3 : 1.0);
@@ -34,28 +59,8 @@ int run_localize(const LocalizeCommand& cmd) {
   const PoseEstimate pose = cmd.method == "paper" ? localize_paper(cloud, mesh)
                                                   : localize(cloud, mesh, LocalizeSetting(), seam_points);
 
-  nlohmann::json out;
-  out["T_base_part"] = nlohmann::json::array();
-  for (int r = 0; r < 4; ++r)
-    out["T_base_part"].push_back({pose.T_base_part.matrix()(r, 0), pose.T_base_part.matrix()(r, 1),
-                                  pose.T_base_part.matrix()(r, 2), pose.T_base_part.matrix()(r, 3)});
-  out["found"] = pose.found;
-  out["reason"] = pose.reason;
-  out["fitness"] = pose.fitness;
-  out["rmse_m"] = pose.rmse_m;
+  nlohmann::json out = pose_to_json(pose);
   out["method"] = cmd.method;
-  out["coverage"] = pose.coverage;
-  out["free_space"] = pose.free_space;
-  out["wall_residual_sigmas"] = pose.wall_residual;
-  out["noise_m"] = pose.noise_m;
-  out["stage_seconds"] = nlohmann::json::object();
-  for (const auto& [stage, sec] : pose.stage_seconds) out["stage_seconds"][stage] = sec;
-  out["ambiguity"] = pose.ambiguity;
-  out["converged"] = pose.converged;
-  out["iterations"] = pose.iterations;
-  out["inliers"] = pose.inliers;
-  out["table_plane"] = {pose.table_plane[0], pose.table_plane[1], pose.table_plane[2], pose.table_plane[3]};
-  out["object_points"] = pose.object_points;
   out["scan_points"] = cloud.size();
   out["dropped_non_finite"] = dropped;
   out["seconds"] = pose.seconds;

@@ -6,6 +6,7 @@
 
 #include "app/localize_command.hpp"
 #include "app/plan_command.hpp"
+#include "app/run_command.hpp"
 #include "app/scan_command.hpp"
 #include "core/error.hpp"
 
@@ -15,6 +16,21 @@ int main(int argc, char** argv) {
       "MuJoCo "
       "digital twin of the cell."};
   app.require_subcommand(1);
+
+  weldtwin::RunCommand run;
+  uint64_t run_seed = 0;
+  bool no_renders = false;
+  CLI::App* rc = app.add_subcommand(
+      "run",
+      "The whole job in the twin: simulated sweep -> localization -> plan -> replay in MuJoCo -> report "
+      "(DIR/report.html, DIR/report.json); exit 0 PASS, 3 FAIL");
+  rc->add_option("cell", run.cell, "cell file (default: scenes/cells/default.yaml)")->check(CLI::ExistingFile);
+  CLI::Option* run_seed_opt = rc->add_option(
+      "--seed", run_seed, "draw the part pose (any yaw, anywhere within reach), 2-4 clamps and clutter");
+  rc->add_option("--out", run.out, "output directory (default: out/run)");
+  rc->add_flag("--no-renders", no_renders, "figures only: no OSMesa pictures or plots (faster)");
+  rc->add_option("--threads", run.threads, "ray-casting threads (default: all cores)");
+  rc->add_flag("-q,--quiet", run.quiet, "no progress lines");
 
   weldtwin::ScanCommand scan;
   uint64_t seed = 0;
@@ -75,6 +91,11 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
+    if (rc->parsed()) {
+      if (*run_seed_opt) run.seed = run_seed;
+      run.renders = !no_renders;
+      return weldtwin::run_job(run);
+    }
     if (sc->parsed()) {
       if (*seed_opt) scan.seed = seed;
       return weldtwin::run_scan(scan);

@@ -11,7 +11,6 @@
 #include "planning/weld_planner.hpp"
 
 namespace weldtwin {
-namespace {
 
 // T_base_part from a pose JSON (DESIGN.md: {"T_base_part": [[4x4 row-major]], ...}).
 Iso3 read_pose(const std::string& path) {
@@ -45,6 +44,8 @@ Iso3 read_pose(const std::string& path) {
   return orthonormalized(T);
 }
 
+namespace {
+
 nlohmann::json pose_json(const Iso3& T) {
   const Quat q(T.linear());
   return {T.translation().x(), T.translation().y(), T.translation().z(), q.w(), q.x(), q.y(), q.z()};
@@ -52,15 +53,8 @@ nlohmann::json pose_json(const Iso3& T) {
 
 }  // namespace
 
-int run_plan(const PlanCommand& cmd) {
-  const CellSpec cell = CellSpec::load(
-      cmd.cell.empty() ? std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml" : cmd.cell);
-  const RobotModel robot = RobotModel::load(cell.robot_urdf);
-  const PartSpec part = PartSpec::load(cmd.part);
-  const Iso3 T_base_part = read_pose(cmd.pose);
-  const PlanSetting setting;
-  const WeldPlan plan = plan_welds(part, T_base_part, robot, setting);
-
+nlohmann::json plan_to_json(const WeldPlan& plan, const PartSpec& part, const RobotModel& robot,
+                            const PlanSetting& setting) {
   nlohmann::json out;
   out["part"] = part.name;
   out["robot"] = robot.name();
@@ -93,6 +87,19 @@ int run_plan(const PlanCommand& cmd) {
                        {"arc", s.arc},
                        {"phase", phase_name(s.phase)}});
   out["samples"] = std::move(samples);
+  return out;
+}
+
+int run_plan(const PlanCommand& cmd) {
+  const CellSpec cell = CellSpec::load(
+      cmd.cell.empty() ? std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml" : cmd.cell);
+  const RobotModel robot = RobotModel::load(cell.robot_urdf);
+  const PartSpec part = PartSpec::load(cmd.part);
+  const Iso3 T_base_part = read_pose(cmd.pose);
+  const PlanSetting setting;
+  const WeldPlan plan = plan_welds(part, T_base_part, robot, setting);
+
+  const nlohmann::json out = plan_to_json(plan, part, robot, setting);
   std::ofstream(cmd.out) << out.dump() << '\n';
   if (!cmd.csv.empty()) {
     std::ofstream csv(cmd.csv);

@@ -1,7 +1,13 @@
 // `weldtwin plan`: the weld program for a part at a pose (plan JSON and CSV, DESIGN.md).
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <string>
+
+#include "core/geometry.hpp"
+#include "core/part_spec.hpp"
+#include "core/robot_model.hpp"
+#include "planning/weld_planner.hpp"
 
 namespace weldtwin {
 
@@ -13,6 +19,13 @@ struct PlanCommand {
   std::string csv;   ///< "" = none
   bool quiet = false;
 };
+
+/// T_base_part from a pose JSON; throws InputError naming the file.
+Iso3 read_pose(const std::string& path);
+
+/// The plan JSON of DESIGN.md.
+nlohmann::json plan_to_json(const WeldPlan& plan, const PartSpec& part, const RobotModel& robot,
+                            const PlanSetting& setting);
 
 /// Returns the exit code: 0 planned, 3 a seam cannot be welded (the plan file says why). Throws InputError.
 int run_plan(const PlanCommand& cmd);

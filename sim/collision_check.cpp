@@ -1,9 +1,153 @@
 #include "sim/collision_check.hpp"
 
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <map>
+#include <optional>
+
+#include "perception/mesh_rays.hpp"
+
 namespace weldtwin {
+namespace {
+
+// Points on the surface of a primitive geom, in the geom's frame, about `spacing` apart.
+std::vector<Vec3> geom_surface_points(int type, const double* size, double spacing) {
+  std::vector<Vec3> pts;
+  auto steps = [&](double len) { return std::max(1, static_cast<int>(std::ceil(len / spacing))); };
+  if (type == mjGEOM_CYLINDER || type == mjGEOM_CAPSULE) {
+    const double r = size[0], hz = size[1];
+    const int na = std::max(8, steps(2 * kPi * r)), nz = steps(2 * hz);
+    for (int i = 0; i <= nz; ++i)
+      for (int a = 0; a < na; ++a) {
+        const double th = 2 * kPi * a / na;
+        pts.emplace_back(r * std::cos(th), r * std::sin(th), -hz + 2 * hz * i / nz);
+      }
+    for (double z : {-hz, hz})
+      for (int ir = 1, nr = steps(r); ir < nr; ++ir) {
+        const double rr = r * ir / nr;
+        const int n = std::max(6, steps(2 * kPi * rr));
+        for (int a = 0; a < n; ++a) pts.emplace_back(rr * std::cos(2 * kPi * a / n), rr * std::sin(2 * kPi * a / n), z);
+      }
+    if (type == mjGEOM_CAPSULE)
+      for (double z : {-hz - r, hz + r}) pts.emplace_back(0, 0, z);
+  } else if (type == mjGEOM_BOX) {
+    for (int axis = 0; axis < 3; ++axis) {
+      const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+      const int nu = steps(2 * size[u]), nv = steps(2 * size[v]);
+      for (double side : {-1.0, 1.0})
+        for (int i = 0; i <= nu; ++i)
+          for (int j = 0; j <= nv; ++j) {
+            Vec3 p;
+            p[axis] = side * size[axis];
+            p[u] = -size[u] + 2 * size[u] * i / nu;
+            p[v] = -size[v] + 2 * size[v] * j / nv;
+            pts.push_back(p);
+          }
+    }
+  } else if (type == mjGEOM_SPHERE) {
+    const int n = std::max(12, static_cast<int>(4 * kPi * size[0] * size[0] / (spacing * spacing)));
+    for (int i = 0; i < n; ++i) {  // Fibonacci sphere
+      const double z = 1 - 2 * (i + 0.5) / n, rho = std::sqrt(1 - z * z), th = kPi * (3 - std::sqrt(5.0)) * i;
+      pts.emplace_back(size[0] * rho * std::cos(th), size[0] * rho * std::sin(th), size[0] * z);
+    }
+  }
+  return pts;
+}
+
+// A robot geom cut into chunks that are tested as a whole first (one point query for the chunk's centre).
+struct Chunk {
+  int geom = 0;
+  Vec3 center = Vec3::Zero();  ///< geom frame
+  double radius = 0.0;
+  std::vector<Vec3> points;  ///< geom frame
+};
+
+std::vector<Chunk> make_chunks(const mjModel* m, int geom, double spacing, double chunk_m) {
+  const std::vector<Vec3> pts = geom_surface_points(m->geom_type[geom], m->geom_size + 3 * geom, spacing);
+  std::map<std::array<int, 3>, Chunk> cells;
+  for (const Vec3& p : pts) {
+    const std::array<int, 3> key{static_cast<int>(std::floor(p.x() / chunk_m)),
+                                 static_cast<int>(std::floor(p.y() / chunk_m)),
+                                 static_cast<int>(std::floor(p.z() / chunk_m))};
+    cells[key].points.push_back(p);
+  }
+  std::vector<Chunk> chunks;
+  for (auto& [key, c] : cells) {
+    c.geom = geom;
+    for (const Vec3& p : c.points) c.center += p;
+    c.center /= static_cast<double>(c.points.size());
+    for (const Vec3& p : c.points) c.radius = std::max(c.radius, (p - c.center).norm());
+    chunks.push_back(std::move(c));
+  }
+  return chunks;
+}
+
+Vec3 geom_to_base(const mjData* d, int g, const Vec3& p) {
+  const double* x = d->geom_xpos + 3 * g;
+  const double* R = d->geom_xmat + 9 * g;
+  return Vec3(x[0] + R[0] * p.x() + R[1] * p.y() + R[2] * p.z(), x[1] + R[3] * p.x() + R[4] * p.y() + R[5] * p.z(),
+              x[2] + R[6] * p.x() + R[7] * p.y() + R[8] * p.z());
+}
+
+std::string geom_name(const mjModel* m, int g) {
+  const char* n = mj_id2name(m, mjOBJ_GEOM, g);
+  return n ? n : "geom" + std::to_string(g);
+}
+
+}  // namespace
+
+struct PartClearance::Impl {
+  const MujocoWorld* world = nullptr;
+  std::unique_ptr<MeshRays> rays;
+  std::vector<Chunk> chunks;
+  double range = 0.05;
+};
+
+PartClearance::PartClearance(const MujocoWorld& world, const Mesh& part_mesh, const Iso3& T_base_part,
+                             double range_m)
+    : impl_(std::make_shared<Impl>()) {
+  Mesh mesh_base = part_mesh;
+  for (Vec3& v : mesh_base.vertices) v = T_base_part * v;
+  impl_->world = &world;
+  impl_->rays = std::make_unique<MeshRays>(mesh_base);
+  impl_->range = range_m;
+  const mjModel* m = world.model();
+  for (int g = 0; g < m->ngeom; ++g)
+    if (world.geom_label(g) == Label::kRobot) {
+      std::vector<Chunk> c = make_chunks(m, g, 0.003, 0.03);
+      impl_->chunks.insert(impl_->chunks.end(), std::make_move_iterator(c.begin()), std::make_move_iterator(c.end()));
+    }
+}
+
+double PartClearance::clearance(const mjData* d, std::string* geom) const {
+  const MeshRays& rays = *impl_->rays;
+  double best = impl_->range;
+  int best_geom = -1;
+  Vec3 best_point = Vec3::Zero();
+  for (const Chunk& c : impl_->chunks) {
+    const double dc = rays.distance(geom_to_base(d, c.geom, c.center), best + c.radius);
+    if (!std::isfinite(dc) || dc - c.radius >= best) continue;
+    for (const Vec3& p : c.points) {
+      const Vec3 pb = geom_to_base(d, c.geom, p);
+      const double dp = rays.distance(pb, best);
+      if (dp < best) {
+        best = dp;
+        best_geom = c.geom;
+        best_point = pb;
+      }
+    }
+  }
+  if (best_geom >= 0 && best < 0.005 && rays.inside(best_point)) best = -best;
+  if (geom) *geom = best_geom >= 0 ? geom_name(impl_->world->model(), best_geom) : "";
+  return best;
+}
+
 
 struct CollisionChecker::State {
   const MujocoWorld* world = nullptr;
+  std::optional<PartClearance> part;
+  double part_margin = 0.0;
   ModelPtr model;
   DataPtr data;
 };
@@ -18,6 +162,11 @@ CollisionChecker::CollisionChecker(const MujocoWorld& world, double margin_m) : 
     if (world.geom_label(g) == Label::kRobot) m->geom_margin[g] = margin_m;
   }
   state_->data.reset(mj_makeData(m));
+}
+
+void CollisionChecker::add_part(const Mesh& part_mesh, const Iso3& T_base_part, double margin_m) {
+  state_->part.emplace(*state_->world, part_mesh, T_base_part, 2 * margin_m + 0.005);
+  state_->part_margin = margin_m;
 }
 
 std::string CollisionChecker::operator()(const JointVector& q) const {
@@ -36,6 +185,10 @@ std::string CollisionChecker::operator()(const JointVector& q) const {
     const char* a = mj_id2name(m, mjOBJ_GEOM, robot);
     const char* b = mj_id2name(m, mjOBJ_GEOM, other);
     return std::string(a ? a : "robot") + " with " + (b ? b : "geom " + std::to_string(other));
+  }
+  if (state_->part) {
+    std::string geom;
+    if (state_->part->clearance(d, &geom) < state_->part_margin) return geom + " with the part";
   }
   return "";
 }

@@ -6,15 +6,34 @@
 #include <memory>
 #include <string>
 
+#include "perception/mesh_io.hpp"
 #include "sim/mujoco_world.hpp"
 
 namespace weldtwin {
+
+/// Clearance of the robot's surfaces to a part's exact mesh (Embree point queries on points 3 mm apart over
+/// every robot geom, chunks far from the part skipped whole). Thread-safe; copies share the mesh.
+class PartClearance {
+ public:
+  PartClearance(const MujocoWorld& world, const Mesh& part_mesh, const Iso3& T_base_part, double range_m);
+  /// The smallest distance [m] from a robot surface to the part at the state `d` (after kinematics), negative
+  /// when inside, `range_m` when nothing is nearer; `geom` names the nearest robot geom ("" if none).
+  double clearance(const mjData* d, std::string* geom = nullptr) const;
+
+ private:
+  struct Impl;
+  std::shared_ptr<Impl> impl_;
+};
 
 class CollisionChecker {
  public:
   /// Robot surfaces closer than `margin_m` (MuJoCo measures the distance of convex shapes reliably only when they
   /// overlap: keep it 0 unless all geoms are boxes and spheres) to the table, a clamp or clutter count as a collision.
   explicit CollisionChecker(const MujocoWorld& world, double margin_m = 0.0);
+
+  /// Also keep the robot `margin_m` away from the part's exact mesh at T_base_part (for planning: the pose
+  /// that was found).
+  void add_part(const Mesh& part_mesh, const Iso3& T_base_part, double margin_m = 0.001);
 
   /// "" when the arm at q is clear, else "ROBOT_GEOM with OTHER_GEOM". Not thread-safe (one mjData); copies
   /// share it.

@@ -102,13 +102,21 @@ Image OffscreenRenderer::render(mjData* data, const View& view, const Overlay& o
     cam.azimuth = view.azimuth_deg;
     cam.elevation = view.elevation_deg;
   }
+  mj_camlight(r.model, data);  // fixed cameras and lights follow the kinematics
   mjv_updateScene(r.model, data, &r.option, nullptr, &cam, mjCAT_ALL, &r.scene);
 
   const int part_geom = mj_name2id(r.model, mjOBJ_GEOM, "part");
+  int kept = 0;
   for (int g = 0; g < r.scene.ngeom; ++g) {
     mjvGeom& geom = r.scene.geoms[g];
-    if (geom.objtype == mjOBJ_GEOM && geom.objid == part_geom) geom.rgba[3] = overlay.part_alpha;
+    const bool is_geom = geom.objtype == mjOBJ_GEOM && geom.objid >= 0;
+    if (is_geom && geom.objid == part_geom) geom.rgba[3] = overlay.part_alpha;
+    if (is_geom && static_cast<size_t>(geom.objid) < overlay.hide_geom.size() && overlay.hide_geom[static_cast<size_t>(geom.objid)])
+      continue;
+    if (is_geom && geom.objid == part_geom && overlay.part_alpha <= 0.0f) continue;
+    r.scene.geoms[kept++] = geom;
   }
+  r.scene.ngeom = kept;
   auto room = [&] { return r.scene.ngeom < r.scene.maxgeom; };
   const mjtNum eye[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
   if (overlay.ghost_mesh >= 0 && room()) {

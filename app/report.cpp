@@ -1,0 +1,381 @@
+#include "app/report.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <sstream>
+
+#include "sim/renderer.hpp"
+
+namespace weldtwin {
+namespace {
+
+std::string base64(const std::vector<uint8_t>& in) {
+  static const char* t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((in.size() + 2) / 3 * 4);
+  for (size_t i = 0; i < in.size(); i += 3) {
+    const uint32_t n = (static_cast<uint32_t>(in[i]) << 16) | (i + 1 < in.size() ? in[i + 1] << 8 : 0) |
+                       (i + 2 < in.size() ? in[i + 2] : 0);
+    out += t[(n >> 18) & 63];
+    out += t[(n >> 12) & 63];
+    out += i + 1 < in.size() ? t[(n >> 6) & 63] : '=';
+    out += i + 2 < in.size() ? t[n & 63] : '=';
+  }
+  return out;
+}
+
+std::vector<uint8_t> read_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::vector<uint8_t>(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+std::string html_escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    if (c == '<') out += "&lt;";
+    else if (c == '>') out += "&gt;";
+    else if (c == '&') out += "&amp;";
+    else if (c == '"') out += "&quot;";
+    else out += c;
+  }
+  return out;
+}
+
+std::string num(double v, int digits = 3) {
+  char b[64];
+  std::snprintf(b, sizeof b, "%.*f", digits, v);
+  return b;
+}
+
+nlohmann::json matrix(const Iso3& T) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r) rows.push_back({T(r, 0), T(r, 1), T(r, 2), T(r, 3)});
+  return rows;
+}
+
+Rgba label_colour(Label l) {
+  switch (l) {
+    case Label::kPart:
+      return {1.0f, 0.55f, 0.05f, 1.0f};
+    case Label::kTable:
+      return {0.55f, 0.6f, 0.65f, 1.0f};
+    case Label::kClamp:
+      return {0.9f, 0.1f, 0.1f, 1.0f};
+    case Label::kRobot:
+      return {0.7f, 0.2f, 0.9f, 1.0f};
+    default:
+      return {0.2f, 0.75f, 0.25f, 1.0f};
+  }
+}
+
+struct Picture {
+  std::string file, title, caption;
+};
+
+// The pictures of the run, rendered offscreen, written as PNG files in `dir`.
+std::vector<Picture> render_pictures(const RunRecord& run, const std::string& dir) {
+  const MujocoWorld& world = *run.world;
+  const mjModel* m = world.model();
+  OffscreenRenderer renderer(m, std::min(800, m->vis.global.offwidth), std::min(600, m->vis.global.offheight));
+  DataPtr d = world.make_data();
+  const PlanSetting defaults;
+  world.set_joints(d.get(), run.plan && !run.plan->samples.empty() ? run.plan->samples.front().q : defaults.home);
+  std::vector<Picture> out;
+  auto save = [&](const Image& img, const std::string& name, const std::string& title, const std::string& caption) {
+    img.write_png(dir + "/" + name);
+    out.push_back({name, title, caption});
+  };
+  std::vector<uint8_t> robot_geoms;
+  for (Label l : world.geom_labels()) robot_geoms.push_back(l == Label::kRobot);
+  const Vec3 part_centre = run.layout->T_base_part * Vec3(0, 0, 0.5 * run.part->height_m);
+  save(renderer.render(d.get(), View{"overview"}), "cell_overview.png", "The cell", "Overview camera, arm at home.");
+  save(renderer.render(d.get(), View{"side"}), "cell_side.png", "The cell from the side", "Side camera.");
+
+  // The scan, coloured by what each point hit, with the model where it was found.
+  Overlay scan;
+  const size_t stride = std::max<size_t>(1, run.cloud.size() / 30000);
+  for (size_t i = 0; i < run.cloud.size(); i += stride) {
+    if ((run.cloud[i] - part_centre).head<2>().norm() > 0.35) continue;
+    scan.points.push_back(run.cloud[i]);
+    scan.point_rgba.push_back(label_colour(i < run.cloud_labels.size() ? run.cloud_labels[i] : Label::kOther));
+  }
+  scan.ghost_mesh = mj_name2id(m, mjOBJ_MESH, "part_mesh");
+  if (run.pose) scan.ghost_pose = run.pose->T_base_part;
+  if (!run.pose || !run.pose->found) scan.ghost_mesh = -1;
+  scan.part_alpha = 0.0f;
+  scan.hide_geom = robot_geoms;
+  const View close{"", part_centre, 0.75, 150.0, -40.0};
+  save(renderer.render(d.get(), close, scan), "scan_labels.png", "What the LiDAR saw",
+       "Scan points near the part: part orange, table grey, clamps red, other green. Blue: the model at the pose "
+       "found (the real part is hidden).");
+
+  // The torch path the arm really followed, drawn on the part.
+  if (run.replay && !run.replay->samples.empty()) {
+    Overlay path;
+    path.hide_geom = robot_geoms;
+    const auto& s = run.replay->samples;
+    for (size_t k = 1; k < s.size(); ++k)
+      if (s[k].arc && s[k - 1].arc) path.segments.emplace_back(s[k - 1].tcp, s[k].tcp);
+    path.segment_width_m = 0.0015;
+    save(renderer.render(d.get(), View{"", part_centre, 0.55, 200.0, -50.0}, path), "torch_path.png",
+         "The torch path on the part", "Yellow: the TCP of the replayed arm while the arc is on.");
+    // The arm at moments of the weld.
+    std::vector<size_t> arc;
+    for (size_t k = 0; k < s.size(); ++k)
+      if (s[k].arc) arc.push_back(k);
+    if (!arc.empty()) {
+      int i = 0;
+      for (double f : {0.0, 0.33, 0.66, 1.0}) {
+        const size_t k = arc[std::min(arc.size() - 1, static_cast<size_t>(f * static_cast<double>(arc.size() - 1)))];
+        world.set_joints(d.get(), s[k].q);
+        char title[128];
+        std::snprintf(title, sizeof title, "t = %.1f s", s[k].t_s);
+        save(renderer.render(d.get(), View{"", part_centre, 1.1, 135.0, -25.0}), "arm_" + std::to_string(i++) + ".png",
+             title, "The arm welding seam '" + run.part->seams[static_cast<size_t>(std::max(0, s[k].seam))].name + "'.");
+      }
+    }
+  }
+  return out;
+}
+
+// Plots by gnuplot (PNG, cairo): joints against their limits, TCP speed, true-seam error.
+std::vector<Picture> plot_figures(const RunRecord& run, const std::string& dir) {
+  std::vector<Picture> out;
+  if (!run.plan || run.plan->samples.size() < 3) return out;
+  const auto& s = run.plan->samples;
+  const double hz = 1.0 / std::max(1e-9, s[1].t_s - s[0].t_s);
+  {
+    std::ofstream dat(dir + "/plot_joints.dat");
+    for (size_t k = 1; k + 1 < s.size(); ++k) {
+      dat << s[k].t_s;
+      for (int j = 0; j < 6; ++j) dat << ' ' << rad2deg(s[k].q[j]);
+      for (int j = 0; j < 6; ++j) dat << ' ' << (s[k + 1].q[j] - s[k - 1].q[j]) * 0.5 * hz;
+      for (int j = 0; j < 6; ++j) dat << ' ' << (s[k + 1].q[j] - 2 * s[k].q[j] + s[k - 1].q[j]) * hz * hz;
+      dat << '\n';
+    }
+  }
+  bool have_replay = run.replay && !run.replay->samples.empty();
+  if (have_replay) {
+    std::ofstream dat(dir + "/plot_seams.dat");
+    const auto& r = run.replay->samples;
+    for (size_t k = 1; k < r.size(); ++k) {
+      if (!r[k].arc || !r[k - 1].arc) continue;
+      dat << r[k].t_s << ' ' << 1e3 * (r[k].tcp - r[k - 1].tcp).norm() / (r[k].t_s - r[k - 1].t_s) << ' '
+          << 1e3 * r[k].seam_error_m << ' ' << 1e3 * r[k].clearance_m << '\n';
+    }
+  }
+  std::ostringstream gp;
+  gp << "set terminal pngcairo size 900,360 font 'DejaVu Sans,10'\nset grid\nset key outside right\n"
+     << "set xlabel 'time [s]'\n";
+  const char* names[] = {"J1", "J2", "J3", "J4", "J5", "J6"};
+  auto joints = [&](const std::string& file, const std::string& ylabel, int first_col, double lim13, double lim46) {
+    gp << "set output '" << dir << "/" << file << "'\nset ylabel '" << ylabel << "'\n";
+    gp << "plot ";
+    for (int j = 0; j < 6; ++j)
+      gp << "'" << dir << "/plot_joints.dat' using 1:" << first_col + j << " with lines lw 1.5 title '" << names[j] << "', ";
+    gp << lim13 << " with lines dt 2 lc rgb 'red' title 'limit J1-J3', " << -lim13
+       << " with lines dt 2 lc rgb 'red' notitle, " << lim46 << " with lines dt 3 lc rgb 'dark-red' title 'limit J4-J6', "
+       << -lim46 << " with lines dt 3 lc rgb 'dark-red' notitle\n";
+  };
+  joints("plot_joint_positions.png", "joint angle [deg]", 2, 175, 175);
+  joints("plot_joint_velocities.png", "joint velocity [rad/s]", 8, 2.5, 3.2);
+  joints("plot_joint_accelerations.png", "joint acceleration [rad/s^2]", 14, 17.2, 20.7);
+  if (have_replay) {
+    const double spec = run.part->seams.empty() ? 0.0 : 1e3 * run.part->seams.front().speed_m_s;
+    gp << "set output '" << dir << "/plot_tcp_speed.png'\nset ylabel 'TCP speed [mm/s]'\n"
+       << "plot '" << dir << "/plot_seams.dat' using 1:2 with points pt 7 ps 0.3 title 'replayed, arc on', " << spec
+       << " with lines dt 2 lc rgb 'red' title 'seam speed'\n";
+    gp << "set output '" << dir << "/plot_seam_error.png'\nset ylabel 'distance [mm]'\nset yrange [0:*]\n"
+       << "plot '" << dir << "/plot_seams.dat' using 1:3 with points pt 7 ps 0.3 title 'torch to true seam', 1.0 with lines "
+       << "dt 2 lc rgb 'red' title '1 mm bar'\n";
+  }
+  const std::string script = dir + "/plots.gp";
+  std::ofstream(script) << gp.str();
+  const std::string call = "gnuplot '" + script + "' 2>'" + dir + "/plots.log'";
+  if (std::system(call.c_str()) != 0) return out;  // the report says the plots are missing
+  out.push_back({"plot_joint_positions.png", "Joint positions", "Planned, against the +-175 deg limits."});
+  out.push_back({"plot_joint_velocities.png", "Joint velocities", "Planned, against the limits."});
+  out.push_back({"plot_joint_accelerations.png", "Joint accelerations", "Planned, against the limits."});
+  if (have_replay) {
+    out.push_back({"plot_tcp_speed.png", "TCP speed while welding", "Replayed arm, against the seam speed."});
+    out.push_back({"plot_seam_error.png", "Torch to the true seam", "Every arc-on sample of the replay."});
+  }
+  for (const char* f : {"/plot_joints.dat", "/plot_seams.dat"}) std::filesystem::remove(dir + f);
+  return out;
+}
+
+}  // namespace
+
+nlohmann::json report_json(const RunRecord& run) {
+  nlohmann::json j;
+  j["verdict"] = run.passed ? "PASS" : "FAIL";
+  j["reasons"] = run.reasons;
+  j["cell"] = run.cell->source;
+  j["seed"] = run.layout->seed ? nlohmann::json(*run.layout->seed) : nlohmann::json(nullptr);
+  j["part"] = run.part->name;
+  j["T_base_part_true"] = matrix(run.layout->T_base_part);
+  j["clamps"] = run.layout->clamps.size();
+  j["scan_points"] = run.cloud.size();
+  if (run.pose) {
+    j["localization"] = {{"found", run.pose->found},
+                         {"reason", run.pose->reason},
+                         {"T_base_part", matrix(run.pose->T_base_part)},
+                         {"fitness", run.pose->fitness},
+                         {"rmse_m", run.pose->rmse_m},
+                         {"coverage", run.pose->coverage},
+                         {"ambiguity", run.pose->ambiguity},
+                         {"seam_error_max_m", run.pose_error.seam_max_m},
+                         {"seam_error_mean_m", run.pose_error.seam_mean_m},
+                         {"rotation_error_deg", rad2deg(run.pose_error.rotation_rad)}};
+  }
+  if (run.plan) {
+    j["plan"] = {{"ok", run.plan->ok()},
+                 {"problems", run.plan->problems},
+                 {"notes", run.plan->notes},
+                 {"duration_s", run.plan->duration_s()},
+                 {"samples", run.plan->samples.size()},
+                 {"seams", run.plan->seams.size()}};
+  }
+  if (run.replay) {
+    const ReplayResult& r = *run.replay;
+    nlohmann::json seams = nlohmann::json::array();
+    for (const SeamFigure& f : r.seams)
+      seams.push_back({{"seam", f.name}, {"samples", f.samples}, {"max_m", f.max_error_m}, {"rms_m", f.rms_error_m}});
+    nlohmann::json contacts = nlohmann::json::array();
+    for (const ReplayContact& c : r.contacts)
+      contacts.push_back({{"robot_geom", c.robot_geom},
+                          {"other_geom", c.other_geom},
+                          {"other", label_name(c.other)},
+                          {"first_t_s", c.first_t_s},
+                          {"last_t_s", c.last_t_s},
+                          {"max_depth_m", c.max_depth_m}});
+    j["replay"] = {{"passed", r.passed()},
+                   {"failures", r.failures},
+                   {"true_seam_error_max_m", r.max_seam_error_m},
+                   {"true_seam_error", seams},
+                   {"tracking_max_rad", r.max_tracking_rad},
+                   {"tcp_tracking_max_m", r.max_tcp_tracking_m},
+                   {"min_clearance_m", r.min_clearance_m},
+                   {"min_clearance_geom", r.min_clearance_geom},
+                   {"min_clearance_t_s", r.min_clearance_t_s},
+                   {"contacts", contacts}};
+  }
+  j["stage_seconds"] = nlohmann::json::object();
+  for (const auto& [name, s] : run.stage_seconds) j["stage_seconds"][name] = s;
+  return j;
+}
+
+double write_report(const RunRecord& run, const std::string& dir, bool renders) {
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<Picture> pictures, plots;
+  std::string missing;
+  if (renders) {
+    try {
+      pictures = render_pictures(run, dir);
+    } catch (const std::exception& e) {
+      missing += std::string("Pictures could not be rendered: ") + e.what() + ". ";
+    }
+    plots = plot_figures(run, dir);
+    if (plots.empty() && run.plan && run.plan->samples.size() >= 3) missing += "Plots need gnuplot (scripts/setup). ";
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  nlohmann::json j = report_json(run);
+  j["stage_seconds"]["report"] = seconds;
+  std::ofstream(dir + "/report.json") << j.dump(1) << '\n';
+
+  std::ostringstream h;
+  h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>weldtwin run: "
+    << html_escape(run.part->name) << "</title>\n<style>\n"
+    << "body{font-family:'DejaVu Sans',sans-serif;margin:2em auto;max-width:1100px;color:#222}\n"
+    << ".verdict{font-size:1.6em;padding:.5em 1em;border-radius:6px;color:#fff}\n"
+    << ".PASS{background:#2e7d32}.FAIL{background:#c62828}\n"
+    << "table{border-collapse:collapse;margin:.5em 0 1.5em}td,th{border:1px solid #ccc;padding:.25em .7em;text-align:left}\n"
+    << "th{background:#f3f3f3}.bad{color:#c62828;font-weight:bold}\n"
+    << "figure{display:inline-block;margin:.5em;vertical-align:top}figure img{max-width:520px;border:1px solid #ddd}\n"
+    << ".plots figure img{max-width:1000px}figcaption{font-size:.85em;color:#555;max-width:520px}\n"
+    << "</style></head><body>\n";
+  h << "<h1>weldtwin run — " << html_escape(run.part->name) << " in cell '" << html_escape(run.cell->name) << "'"
+    << (run.layout->seed ? ", seed " + std::to_string(*run.layout->seed) : std::string()) << "</h1>\n";
+  h << "<div class=\"verdict " << (run.passed ? "PASS" : "FAIL") << "\">" << (run.passed ? "PASS" : "FAIL");
+  if (run.replay) h << " — torch within " << num(1e3 * run.replay->max_seam_error_m) << " mm of the true seam";
+  h << "</div>\n";
+  if (!run.reasons.empty()) {
+    h << "<ul>";
+    for (const auto& r : run.reasons) h << "<li class=\"bad\">" << html_escape(r) << "</li>";
+    h << "</ul>\n";
+  }
+  h << "<h2>Where the weld lands</h2>\n";
+  if (run.replay) {
+    h << "<p>Distance from the replayed torch (TCP) to the true seam at every arc-on sample (limit 1 mm).</p>"
+      << "<table><tr><th>seam</th><th>arc-on samples</th><th>max [mm]</th><th>RMS [mm]</th></tr>\n";
+    for (const SeamFigure& f : run.replay->seams)
+      h << "<tr><td>" << html_escape(f.name) << "</td><td>" << f.samples << "</td><td"
+        << (f.max_error_m > 1e-3 ? " class=\"bad\"" : "") << ">" << num(1e3 * f.max_error_m) << "</td><td>"
+        << num(1e3 * f.rms_error_m) << "</td></tr>\n";
+    h << "</table>\n";
+  } else {
+    h << "<p class=\"bad\">Nothing was replayed.</p>\n";
+  }
+  h << "<h2>Figures</h2>\n<table>\n";
+  auto row = [&](const std::string& k, const std::string& v, bool bad = false) {
+    h << "<tr><th>" << k << "</th><td" << (bad ? " class=\"bad\"" : "") << ">" << html_escape(v) << "</td></tr>\n";
+  };
+  if (run.pose) {
+    row("part found", run.pose->found ? "yes" : "no: " + run.pose->reason, !run.pose->found);
+    row("fitness / coverage / ambiguity",
+        num(run.pose->fitness, 2) + " / " + num(run.pose->coverage, 2) + " / " + num(run.pose->ambiguity, 2));
+    row("inlier RMSE", num(1e3 * run.pose->rmse_m) + " mm");
+    row("localization seam error (vs truth)", num(1e3 * run.pose_error.seam_max_m) + " mm max, " +
+                                                  num(1e3 * run.pose_error.seam_mean_m) + " mm mean",
+        run.pose_error.seam_max_m > 1e-3);
+    row("localization rotation error", num(rad2deg(run.pose_error.rotation_rad)) + " deg");
+  }
+  if (run.plan) {
+    row("plan", run.plan->ok() ? "ok" : run.plan->problems.front(), !run.plan->ok());
+    row("plan duration", num(run.plan->duration_s(), 1) + " s, " + std::to_string(run.plan->samples.size()) + " samples");
+    for (const auto& n : run.plan->notes) row("plan note", n);
+  }
+  if (run.replay) {
+    const ReplayResult& r = *run.replay;
+    row("replay tracking error", num(r.max_tracking_rad, 6) + " rad max (joints), " + num(1e3 * r.max_tcp_tracking_m) +
+                                     " mm max (TCP, arc on)");
+    row("nozzle/robot clearance to the part", num(1e3 * r.min_clearance_m, 1) + " mm (" + r.min_clearance_geom +
+                                                  ", t = " + num(r.min_clearance_t_s, 2) + " s)",
+        r.min_clearance_m < 1e-3);
+    row("contacts", r.contacts.empty() ? "none" : std::to_string(r.contacts.size()), !r.contacts.empty());
+    for (const ReplayContact& c : r.contacts)
+      row("contact", c.robot_geom + " with " + c.other_geom + " from t = " + num(c.first_t_s, 2) + " s, " +
+                         num(1e3 * c.max_depth_m, 1) + " mm deep",
+          true);
+  }
+  for (const auto& [name, s] : run.stage_seconds) row("time: " + name, num(s, 2) + " s");
+  row("time: report", num(seconds, 2) + " s");
+  h << "</table>\n";
+  if (!missing.empty()) h << "<p class=\"bad\">" << html_escape(missing) << "</p>\n";
+  auto figures = [&](const std::vector<Picture>& list) {
+    for (const Picture& p : list)
+      h << "<figure><img alt=\"" << html_escape(p.title) << "\" src=\"data:image/png;base64,"
+        << base64(read_bytes(dir + "/" + p.file)) << "\"><figcaption><b>" << html_escape(p.title) << ".</b> "
+        << html_escape(p.caption) << "</figcaption></figure>\n";
+  };
+  if (!pictures.empty()) {
+    h << "<h2>The twin</h2>\n";
+    figures(pictures);
+  }
+  if (!plots.empty()) {
+    h << "<h2>Plots</h2>\n<div class=\"plots\">\n";
+    figures(plots);
+    h << "</div>\n";
+  }
+  h << "<p style=\"color:#777;font-size:.8em\">All figures: report.json beside this page.</p>\n</body></html>\n";
+  std::ofstream(dir + "/report.html") << h.str();
+  return seconds;
+}
+
+}  // namespace weldtwin

@@ -1,0 +1,23 @@
+// `weldtwin run`: the whole job in the twin — simulated sweep, localization, plan, replay in MuJoCo — and a
+// report a welding engineer would read (DIR/report.html, DIR/report.json), with a one-line verdict.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+namespace weldtwin {
+
+struct RunCommand {
+  std::string cell;  ///< cell YAML ("" = scenes/cells/default.yaml)
+  std::optional<uint64_t> seed;
+  std::string out = "out/run";
+  bool renders = true;  ///< OSMesa pictures and plots in the report (off: figures only, faster)
+  bool quiet = false;
+  int threads = 0;
+};
+
+/// Returns the exit code: 0 PASS, 3 FAIL (the report says why). Throws InputError for bad input.
+int run_job(const RunCommand& cmd);
+
+}  // namespace weldtwin
