@@ -17,12 +17,11 @@ configure: setup
 build: configure
 	@cmake --build $(BUILD) -j$(JOBS)
 
-# Until `weldtwin run` exists, the main job is the default sweep: ScanLog, base-frame cloud and its truth.
+# The main job on the default cell: sweep -> localize -> plan -> replay in MuJoCo -> report.
 run: build
 	@mkdir -p $(OUT)
-	$(BUILD)/app/weldtwin scan scenes/cells/default.yaml --out $(OUT)/default.scanlog \
-	  --cloud $(OUT)/scan.pcd --truth $(OUT)/truth.json
-	@echo "make run: wrote $(OUT)/default.scanlog, $(OUT)/scan.pcd and $(OUT)/truth.json"
+	$(BUILD)/app/weldtwin run scenes/cells/default.yaml --out $(OUT)/run; \
+	  status=$$?; echo "make run: report in $(OUT)/run/report.html"; exit $$status
 
 test: build
 	@cd $(BUILD) && ctest --output-on-failure -j$(JOBS)
