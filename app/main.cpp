@@ -24,7 +24,8 @@ int main(int argc, char** argv) {
       "run",
       "The whole job in the twin: simulated sweep -> localization -> plan -> replay in MuJoCo -> report "
       "(DIR/report.html, DIR/report.json); exit 0 PASS, 3 FAIL");
-  rc->add_option("cell", run.cell, "cell file (default: scenes/cells/default.yaml)")->check(CLI::ExistingFile);
+  rc->add_option("cell", run.cell, "cell file (default: scenes/cells/default.yaml)")
+      ->check(CLI::ExistingFile);
   CLI::Option* run_seed_opt = rc->add_option(
       "--seed", run_seed, "draw the part pose (any yaw, anywhere within reach), 2-4 clamps and clutter");
   rc->add_option("--out", run.out, "output directory (default: out/run)");

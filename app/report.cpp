@@ -38,11 +38,16 @@ std::vector<uint8_t> read_bytes(const std::string& path) {
 std::string html_escape(const std::string& s) {
   std::string out;
   for (char c : s) {
-    if (c == '<') out += "&lt;";
-    else if (c == '>') out += "&gt;";
-    else if (c == '&') out += "&amp;";
-    else if (c == '"') out += "&quot;";
-    else out += c;
+    if (c == '<')
+      out += "&lt;";
+    else if (c == '>')
+      out += "&gt;";
+    else if (c == '&')
+      out += "&amp;";
+    else if (c == '"')
+      out += "&quot;";
+    else
+      out += c;
   }
   return out;
 }
@@ -82,19 +87,23 @@ struct Picture {
 std::vector<Picture> render_pictures(const RunRecord& run, const std::string& dir) {
   const MujocoWorld& world = *run.world;
   const mjModel* m = world.model();
-  OffscreenRenderer renderer(m, std::min(800, m->vis.global.offwidth), std::min(600, m->vis.global.offheight));
+  OffscreenRenderer renderer(m, std::min(800, m->vis.global.offwidth),
+                             std::min(600, m->vis.global.offheight));
   DataPtr d = world.make_data();
   const PlanSetting defaults;
-  world.set_joints(d.get(), run.plan && !run.plan->samples.empty() ? run.plan->samples.front().q : defaults.home);
+  world.set_joints(d.get(),
+                   run.plan && !run.plan->samples.empty() ? run.plan->samples.front().q : defaults.home);
   std::vector<Picture> out;
-  auto save = [&](const Image& img, const std::string& name, const std::string& title, const std::string& caption) {
+  auto save = [&](const Image& img, const std::string& name, const std::string& title,
+                  const std::string& caption) {
     img.write_png(dir + "/" + name);
     out.push_back({name, title, caption});
   };
   std::vector<uint8_t> robot_geoms;
   for (Label l : world.geom_labels()) robot_geoms.push_back(l == Label::kRobot);
   const Vec3 part_centre = run.layout->T_base_part * Vec3(0, 0, 0.5 * run.part->height_m);
-  save(renderer.render(d.get(), View{"overview"}), "cell_overview.png", "The cell", "Overview camera, arm at home.");
+  save(renderer.render(d.get(), View{"overview"}), "cell_overview.png", "The cell",
+       "Overview camera, arm at home.");
   save(renderer.render(d.get(), View{"side"}), "cell_side.png", "The cell from the side", "Side camera.");
 
   // The scan, coloured by what each point hit, with the model where it was found.
@@ -103,7 +112,8 @@ std::vector<Picture> render_pictures(const RunRecord& run, const std::string& di
   for (size_t i = 0; i < run.cloud.size(); i += stride) {
     if ((run.cloud[i] - part_centre).head<2>().norm() > 0.35) continue;
     scan.points.push_back(run.cloud[i]);
-    scan.point_rgba.push_back(label_colour(i < run.cloud_labels.size() ? run.cloud_labels[i] : Label::kOther));
+    scan.point_rgba.push_back(
+        label_colour(i < run.cloud_labels.size() ? run.cloud_labels[i] : Label::kOther));
   }
   scan.ghost_mesh = mj_name2id(m, mjOBJ_MESH, "part_mesh");
   if (run.pose) scan.ghost_pose = run.pose->T_base_part;
@@ -112,7 +122,8 @@ std::vector<Picture> render_pictures(const RunRecord& run, const std::string& di
   scan.hide_geom = robot_geoms;
   const View close{"", part_centre, 0.75, 150.0, -40.0};
   save(renderer.render(d.get(), close, scan), "scan_labels.png", "What the LiDAR saw",
-       "Scan points near the part: part orange, table grey, clamps red, other green. Blue: the model at the pose "
+       "Scan points near the part: part orange, table grey, clamps red, other green. Blue: the model at the "
+       "pose "
        "found (the real part is hidden).");
 
   // The torch path the arm really followed, drawn on the part.
@@ -132,12 +143,15 @@ std::vector<Picture> render_pictures(const RunRecord& run, const std::string& di
     if (!arc.empty()) {
       int i = 0;
       for (double f : {0.0, 0.33, 0.66, 1.0}) {
-        const size_t k = arc[std::min(arc.size() - 1, static_cast<size_t>(f * static_cast<double>(arc.size() - 1)))];
+        const size_t k =
+            arc[std::min(arc.size() - 1, static_cast<size_t>(f * static_cast<double>(arc.size() - 1)))];
         world.set_joints(d.get(), s[k].q);
         char title[128];
         std::snprintf(title, sizeof title, "t = %.1f s", s[k].t_s);
-        save(renderer.render(d.get(), View{"", part_centre, 1.1, 135.0, -25.0}), "arm_" + std::to_string(i++) + ".png",
-             title, "The arm welding seam '" + run.part->seams[static_cast<size_t>(std::max(0, s[k].seam))].name + "'.");
+        save(renderer.render(d.get(), View{"", part_centre, 1.1, 135.0, -25.0}),
+             "arm_" + std::to_string(i++) + ".png", title,
+             "The arm welding seam '" + run.part->seams[static_cast<size_t>(std::max(0, s[k].seam))].name +
+                 "'.");
       }
     }
   }
@@ -174,14 +188,17 @@ std::vector<Picture> plot_figures(const RunRecord& run, const std::string& dir) 
   gp << "set terminal pngcairo size 900,360 font 'DejaVu Sans,10'\nset grid\nset key outside right\n"
      << "set xlabel 'time [s]'\n";
   const char* names[] = {"J1", "J2", "J3", "J4", "J5", "J6"};
-  auto joints = [&](const std::string& file, const std::string& ylabel, int first_col, double lim13, double lim46) {
+  auto joints = [&](const std::string& file, const std::string& ylabel, int first_col, double lim13,
+                    double lim46) {
     gp << "set output '" << dir << "/" << file << "'\nset ylabel '" << ylabel << "'\n";
     gp << "plot ";
     for (int j = 0; j < 6; ++j)
-      gp << "'" << dir << "/plot_joints.dat' using 1:" << first_col + j << " with lines lw 1.5 title '" << names[j] << "', ";
+      gp << "'" << dir << "/plot_joints.dat' using 1:" << first_col + j << " with lines lw 1.5 title '"
+         << names[j] << "', ";
     gp << lim13 << " with lines dt 2 lc rgb 'red' title 'limit J1-J3', " << -lim13
-       << " with lines dt 2 lc rgb 'red' notitle, " << lim46 << " with lines dt 3 lc rgb 'dark-red' title 'limit J4-J6', "
-       << -lim46 << " with lines dt 3 lc rgb 'dark-red' notitle\n";
+       << " with lines dt 2 lc rgb 'red' notitle, " << lim46
+       << " with lines dt 3 lc rgb 'dark-red' title 'limit J4-J6', " << -lim46
+       << " with lines dt 3 lc rgb 'dark-red' notitle\n";
   };
   joints("plot_joint_positions.png", "joint angle [deg]", 2, 175, 175);
   joints("plot_joint_velocities.png", "joint velocity [rad/s]", 8, 2.5, 3.2);
@@ -189,10 +206,11 @@ std::vector<Picture> plot_figures(const RunRecord& run, const std::string& dir) 
   if (have_replay) {
     const double spec = run.part->seams.empty() ? 0.0 : 1e3 * run.part->seams.front().speed_m_s;
     gp << "set output '" << dir << "/plot_tcp_speed.png'\nset ylabel 'TCP speed [mm/s]'\n"
-       << "plot '" << dir << "/plot_seams.dat' using 1:2 with points pt 7 ps 0.3 title 'replayed, arc on', " << spec
-       << " with lines dt 2 lc rgb 'red' title 'seam speed'\n";
+       << "plot '" << dir << "/plot_seams.dat' using 1:2 with points pt 7 ps 0.3 title 'replayed, arc on', "
+       << spec << " with lines dt 2 lc rgb 'red' title 'seam speed'\n";
     gp << "set output '" << dir << "/plot_seam_error.png'\nset ylabel 'distance [mm]'\nset yrange [0:*]\n"
-       << "plot '" << dir << "/plot_seams.dat' using 1:3 with points pt 7 ps 0.3 title 'torch to true seam', 1.0 with lines "
+       << "plot '" << dir
+       << "/plot_seams.dat' using 1:3 with points pt 7 ps 0.3 title 'torch to true seam', 1.0 with lines "
        << "dt 2 lc rgb 'red' title '1 mm bar'\n";
   }
   const std::string script = dir + "/plots.gp";
@@ -246,7 +264,8 @@ nlohmann::json report_json(const RunRecord& run) {
     const ReplayResult& r = *run.replay;
     nlohmann::json seams = nlohmann::json::array();
     for (const SeamFigure& f : r.seams)
-      seams.push_back({{"seam", f.name}, {"samples", f.samples}, {"max_m", f.max_error_m}, {"rms_m", f.rms_error_m}});
+      seams.push_back(
+          {{"seam", f.name}, {"samples", f.samples}, {"max_m", f.max_error_m}, {"rms_m", f.rms_error_m}});
     nlohmann::json contacts = nlohmann::json::array();
     for (const ReplayContact& c : r.contacts)
       contacts.push_back({{"robot_geom", c.robot_geom},
@@ -282,7 +301,8 @@ double write_report(const RunRecord& run, const std::string& dir, bool renders) 
       missing += std::string("Pictures could not be rendered: ") + e.what() + ". ";
     }
     plots = plot_figures(run, dir);
-    if (plots.empty() && run.plan && run.plan->samples.size() >= 3) missing += "Plots need gnuplot (scripts/setup). ";
+    if (plots.empty() && run.plan && run.plan->samples.size() >= 3)
+      missing += "Plots need gnuplot (scripts/setup). ";
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   nlohmann::json j = report_json(run);
@@ -295,15 +315,18 @@ double write_report(const RunRecord& run, const std::string& dir, bool renders) 
     << "body{font-family:'DejaVu Sans',sans-serif;margin:2em auto;max-width:1100px;color:#222}\n"
     << ".verdict{font-size:1.6em;padding:.5em 1em;border-radius:6px;color:#fff}\n"
     << ".PASS{background:#2e7d32}.FAIL{background:#c62828}\n"
-    << "table{border-collapse:collapse;margin:.5em 0 1.5em}td,th{border:1px solid #ccc;padding:.25em .7em;text-align:left}\n"
+    << "table{border-collapse:collapse;margin:.5em 0 1.5em}td,th{border:1px solid #ccc;padding:.25em "
+       ".7em;text-align:left}\n"
     << "th{background:#f3f3f3}.bad{color:#c62828;font-weight:bold}\n"
-    << "figure{display:inline-block;margin:.5em;vertical-align:top}figure img{max-width:520px;border:1px solid #ddd}\n"
+    << "figure{display:inline-block;margin:.5em;vertical-align:top}figure img{max-width:520px;border:1px "
+       "solid #ddd}\n"
     << ".plots figure img{max-width:1000px}figcaption{font-size:.85em;color:#555;max-width:520px}\n"
     << "</style></head><body>\n";
-  h << "<h1>weldtwin run — " << html_escape(run.part->name) << " in cell '" << html_escape(run.cell->name) << "'"
-    << (run.layout->seed ? ", seed " + std::to_string(*run.layout->seed) : std::string()) << "</h1>\n";
+  h << "<h1>weldtwin run — " << html_escape(run.part->name) << " in cell '" << html_escape(run.cell->name)
+    << "'" << (run.layout->seed ? ", seed " + std::to_string(*run.layout->seed) : std::string()) << "</h1>\n";
   h << "<div class=\"verdict " << (run.passed ? "PASS" : "FAIL") << "\">" << (run.passed ? "PASS" : "FAIL");
-  if (run.replay) h << " — torch within " << num(1e3 * run.replay->max_seam_error_m) << " mm of the true seam";
+  if (run.replay)
+    h << " — torch within " << num(1e3 * run.replay->max_seam_error_m) << " mm of the true seam";
   h << "</div>\n";
   if (!run.reasons.empty()) {
     h << "<ul>";
@@ -324,34 +347,39 @@ double write_report(const RunRecord& run, const std::string& dir, bool renders) 
   }
   h << "<h2>Figures</h2>\n<table>\n";
   auto row = [&](const std::string& k, const std::string& v, bool bad = false) {
-    h << "<tr><th>" << k << "</th><td" << (bad ? " class=\"bad\"" : "") << ">" << html_escape(v) << "</td></tr>\n";
+    h << "<tr><th>" << k << "</th><td" << (bad ? " class=\"bad\"" : "") << ">" << html_escape(v)
+      << "</td></tr>\n";
   };
   if (run.pose) {
     row("part found", run.pose->found ? "yes" : "no: " + run.pose->reason, !run.pose->found);
     row("fitness / coverage / ambiguity",
         num(run.pose->fitness, 2) + " / " + num(run.pose->coverage, 2) + " / " + num(run.pose->ambiguity, 2));
     row("inlier RMSE", num(1e3 * run.pose->rmse_m) + " mm");
-    row("localization seam error (vs truth)", num(1e3 * run.pose_error.seam_max_m) + " mm max, " +
-                                                  num(1e3 * run.pose_error.seam_mean_m) + " mm mean",
+    row("localization seam error (vs truth)",
+        num(1e3 * run.pose_error.seam_max_m) + " mm max, " + num(1e3 * run.pose_error.seam_mean_m) +
+            " mm mean",
         run.pose_error.seam_max_m > 1e-3);
     row("localization rotation error", num(rad2deg(run.pose_error.rotation_rad)) + " deg");
   }
   if (run.plan) {
     row("plan", run.plan->ok() ? "ok" : run.plan->problems.front(), !run.plan->ok());
-    row("plan duration", num(run.plan->duration_s(), 1) + " s, " + std::to_string(run.plan->samples.size()) + " samples");
+    row("plan duration",
+        num(run.plan->duration_s(), 1) + " s, " + std::to_string(run.plan->samples.size()) + " samples");
     for (const auto& n : run.plan->notes) row("plan note", n);
   }
   if (run.replay) {
     const ReplayResult& r = *run.replay;
-    row("replay tracking error", num(r.max_tracking_rad, 6) + " rad max (joints), " + num(1e3 * r.max_tcp_tracking_m) +
-                                     " mm max (TCP, arc on)");
-    row("nozzle/robot clearance to the part", num(1e3 * r.min_clearance_m, 1) + " mm (" + r.min_clearance_geom +
-                                                  ", t = " + num(r.min_clearance_t_s, 2) + " s)",
+    row("replay tracking error", num(r.max_tracking_rad, 6) + " rad max (joints), " +
+                                     num(1e3 * r.max_tcp_tracking_m) + " mm max (TCP, arc on)");
+    row("nozzle/robot clearance to the part",
+        num(1e3 * r.min_clearance_m, 1) + " mm (" + r.min_clearance_geom +
+            ", t = " + num(r.min_clearance_t_s, 2) + " s)",
         r.min_clearance_m < 1e-3);
     row("contacts", r.contacts.empty() ? "none" : std::to_string(r.contacts.size()), !r.contacts.empty());
     for (const ReplayContact& c : r.contacts)
-      row("contact", c.robot_geom + " with " + c.other_geom + " from t = " + num(c.first_t_s, 2) + " s, " +
-                         num(1e3 * c.max_depth_m, 1) + " mm deep",
+      row("contact",
+          c.robot_geom + " with " + c.other_geom + " from t = " + num(c.first_t_s, 2) + " s, " +
+              num(1e3 * c.max_depth_m, 1) + " mm deep",
           true);
   }
   for (const auto& [name, s] : run.stage_seconds) row("time: " + name, num(s, 2) + " s");
@@ -373,7 +401,8 @@ double write_report(const RunRecord& run, const std::string& dir, bool renders) 
     figures(plots);
     h << "</div>\n";
   }
-  h << "<p style=\"color:#777;font-size:.8em\">All figures: report.json beside this page.</p>\n</body></html>\n";
+  h << "<p style=\"color:#777;font-size:.8em\">All figures: report.json beside this "
+       "page.</p>\n</body></html>\n";
   std::ofstream(dir + "/report.html") << h.str();
   return seconds;
 }

@@ -22,8 +22,8 @@ struct RunRecord {
   const PartSpec* part = nullptr;
   const CellLayout* layout = nullptr;
   const MujocoWorld* world = nullptr;
-  std::vector<Vec3> cloud;            ///< base frame
-  std::vector<Label> cloud_labels;    ///< truth, per point
+  std::vector<Vec3> cloud;          ///< base frame
+  std::vector<Label> cloud_labels;  ///< truth, per point
   const PoseEstimate* pose = nullptr;
   PoseError pose_error;
   const WeldPlan* plan = nullptr;

@@ -81,7 +81,8 @@ int run_job(const RunCommand& cmd) {
     j["method"] = "ours";
     std::ofstream(cmd.out + "/pose.json") << j.dump(1) << '\n';
   }
-  std::snprintf(buf, sizeof buf, "%s: fitness %.2f, coverage %.2f, seam error %.3f mm against the truth (%.2f s)",
+  std::snprintf(buf, sizeof buf,
+                "%s: fitness %.2f, coverage %.2f, seam error %.3f mm against the truth (%.2f s)",
                 pose.found ? "found" : ("NOT found: " + pose.reason).c_str(), pose.fitness, pose.coverage,
                 1e3 * run.pose_error.seam_max_m, stage_done("localize"));
   say("[2/5] find", buf);
@@ -99,7 +100,9 @@ int run_job(const RunCommand& cmd) {
   }
   run.plan = &plan;
   std::snprintf(buf, sizeof buf, "%s%zu seams, %.1f s, %zu samples (%.2f s)",
-                !pose.found ? "skipped (no pose), " : plan.ok() ? "" : ("NOT planned: " + plan.problems.front() + "; ").c_str(),
+                !pose.found ? "skipped (no pose), "
+                : plan.ok() ? ""
+                            : ("NOT planned: " + plan.problems.front() + "; ").c_str(),
                 plan.seams.size(), plan.duration_s(), plan.samples.size(), stage_done("plan"));
   say("[3/5] plan", buf);
 
@@ -108,10 +111,11 @@ int run_job(const RunCommand& cmd) {
   if (pose.found && plan.ok() && !plan.samples.empty()) {
     replay = replay_plan(world, robot, plan, part, mesh, layout.T_base_part);
     run.replay = &replay;
-    std::snprintf(buf, sizeof buf,
-                  "%s: torch to true seam max %.3f mm, tracking %.2e rad, %zu contacts, clearance %.1f mm (%.2f s)",
-                  replay.passed() ? "clean" : "FAILED", 1e3 * replay.max_seam_error_m, replay.max_tracking_rad,
-                  replay.contacts.size(), 1e3 * replay.min_clearance_m, stage_done("replay"));
+    std::snprintf(
+        buf, sizeof buf,
+        "%s: torch to true seam max %.3f mm, tracking %.2e rad, %zu contacts, clearance %.1f mm (%.2f s)",
+        replay.passed() ? "clean" : "FAILED", 1e3 * replay.max_seam_error_m, replay.max_tracking_rad,
+        replay.contacts.size(), 1e3 * replay.min_clearance_m, stage_done("replay"));
   } else {
     std::snprintf(buf, sizeof buf, "skipped: nothing to replay (%.2f s)", stage_done("replay"));
   }
@@ -133,12 +137,14 @@ int run_job(const RunCommand& cmd) {
   double total = 0.0;
   for (const auto& [name, s] : run.stage_seconds) total += s;
   if (run.passed) {
-    std::printf("PASS: every arc-on torch position within %.3f mm of the true seam (max; %s); report %s/report.html "
-                "(%.1f s)\n",
-                1e3 * replay.max_seam_error_m, "limit 1 mm", cmd.out.c_str(), total);
+    std::printf(
+        "PASS: every arc-on torch position within %.3f mm of the true seam (max; %s); report %s/report.html "
+        "(%.1f s)\n",
+        1e3 * replay.max_seam_error_m, "limit 1 mm", cmd.out.c_str(), total);
     return 0;
   }
-  std::printf("FAIL: %s; report %s/report.html (%.1f s)\n", run.reasons.front().c_str(), cmd.out.c_str(), total);
+  std::printf("FAIL: %s; report %s/report.html (%.1f s)\n", run.reasons.front().c_str(), cmd.out.c_str(),
+              total);
   return 3;
 }
 

@@ -54,8 +54,8 @@ bool nearest_triangle(RTCPointQueryFunctionArguments* args) {
   auto* q = static_cast<NearestQuery*>(args->userPtr);
   const Eigen::Vector3i& f = (*q->faces)[args->primID];
   const std::vector<Vec3>& v = *q->vertices;
-  const Vec3 c =
-      closest_on_triangle(q->p, v[static_cast<size_t>(f[0])], v[static_cast<size_t>(f[1])], v[static_cast<size_t>(f[2])]);
+  const Vec3 c = closest_on_triangle(q->p, v[static_cast<size_t>(f[0])], v[static_cast<size_t>(f[1])],
+                                     v[static_cast<size_t>(f[2])]);
   const double d2 = (c - q->p).squaredNorm();
   if (d2 >= q->best_sq) return false;
   q->best_sq = d2;
@@ -120,7 +120,8 @@ double MeshRays::distance(const Vec3& p, double max_m) const {
   rtcInitPointQueryContext(&ctx);
   NearestQuery nearest{&impl_->vertices, &impl_->faces, p, max_m * max_m};
   rtcPointQuery(impl_->scene, &query, &ctx, nearest_triangle, &nearest);
-  return nearest.best_sq < max_m * max_m ? std::sqrt(nearest.best_sq) : std::numeric_limits<double>::infinity();
+  return nearest.best_sq < max_m * max_m ? std::sqrt(nearest.best_sq)
+                                         : std::numeric_limits<double>::infinity();
 }
 
 bool MeshRays::inside(const Vec3& p) const {

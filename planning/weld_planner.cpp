@@ -496,7 +496,8 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
             break;
         }
         b.set_branch(c.branch);
-        if (!b.checked([&] { return b.transit(c.q_start, "transit to " + what); }, false, "transit to " + what))
+        if (!b.checked([&] { return b.transit(c.q_start, "transit to " + what); }, false,
+                       "transit to " + what))
           break;
         if (!b.checked(
                 [&] {

@@ -3,8 +3,9 @@
 // off) -> the seam (arc on) -> corner transitions where seams meet -> departure -> ... -> home. Free torch
 // rolls are chosen for the largest joint-limit and singularity margin; circular seams that J6 cannot follow
 // in one go are split with a re-grip; with a collision test from the cell, branches and rolls that would
-// hit the table, clamps or clutter are not chosen and transits are lifted over obstacles. Every sample is checked against the joint limits after IK; what cannot
-// be welded is reported by seam name with the reason, never slowed down or dropped silently.
+// hit the table, clamps or clutter are not chosen and transits are lifted over obstacles. Every sample is
+// checked against the joint limits after IK; what cannot be welded is reported by seam name with the reason,
+// never slowed down or dropped silently.
 #pragma once
 
 #include <functional>

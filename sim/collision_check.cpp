@@ -27,7 +27,8 @@ std::vector<Vec3> geom_surface_points(int type, const double* size, double spaci
       for (int ir = 1, nr = steps(r); ir < nr; ++ir) {
         const double rr = r * ir / nr;
         const int n = std::max(6, steps(2 * kPi * rr));
-        for (int a = 0; a < n; ++a) pts.emplace_back(rr * std::cos(2 * kPi * a / n), rr * std::sin(2 * kPi * a / n), z);
+        for (int a = 0; a < n; ++a)
+          pts.emplace_back(rr * std::cos(2 * kPi * a / n), rr * std::sin(2 * kPi * a / n), z);
       }
     if (type == mjGEOM_CAPSULE)
       for (double z : {-hz - r, hz + r}) pts.emplace_back(0, 0, z);
@@ -86,7 +87,8 @@ std::vector<Chunk> make_chunks(const mjModel* m, int geom, double spacing, doubl
 Vec3 geom_to_base(const mjData* d, int g, const Vec3& p) {
   const double* x = d->geom_xpos + 3 * g;
   const double* R = d->geom_xmat + 9 * g;
-  return Vec3(x[0] + R[0] * p.x() + R[1] * p.y() + R[2] * p.z(), x[1] + R[3] * p.x() + R[4] * p.y() + R[5] * p.z(),
+  return Vec3(x[0] + R[0] * p.x() + R[1] * p.y() + R[2] * p.z(),
+              x[1] + R[3] * p.x() + R[4] * p.y() + R[5] * p.z(),
               x[2] + R[6] * p.x() + R[7] * p.y() + R[8] * p.z());
 }
 
@@ -116,7 +118,8 @@ PartClearance::PartClearance(const MujocoWorld& world, const Mesh& part_mesh, co
   for (int g = 0; g < m->ngeom; ++g)
     if (world.geom_label(g) == Label::kRobot) {
       std::vector<Chunk> c = make_chunks(m, g, 0.003, 0.03);
-      impl_->chunks.insert(impl_->chunks.end(), std::make_move_iterator(c.begin()), std::make_move_iterator(c.end()));
+      impl_->chunks.insert(impl_->chunks.end(), std::make_move_iterator(c.begin()),
+                           std::make_move_iterator(c.end()));
     }
 }
 
@@ -143,7 +146,6 @@ double PartClearance::clearance(const mjData* d, std::string* geom) const {
   return best;
 }
 
-
 struct CollisionChecker::State {
   const MujocoWorld* world = nullptr;
   std::optional<PartClearance> part;
@@ -152,7 +154,8 @@ struct CollisionChecker::State {
   DataPtr data;
 };
 
-CollisionChecker::CollisionChecker(const MujocoWorld& world, double margin_m) : state_(std::make_shared<State>()) {
+CollisionChecker::CollisionChecker(const MujocoWorld& world, double margin_m)
+    : state_(std::make_shared<State>()) {
   install_mujoco_handlers();
   state_->world = &world;
   state_->model.reset(mj_copyModel(nullptr, world.model()));
@@ -178,7 +181,8 @@ std::string CollisionChecker::operator()(const JointVector& q) const {
   mj_collision(m, d);
   for (int c = 0; c < d->ncon; ++c) {
     const mjContact& con = d->contact[c];
-    const bool r1 = world.geom_label(con.geom1) == Label::kRobot, r2 = world.geom_label(con.geom2) == Label::kRobot;
+    const bool r1 = world.geom_label(con.geom1) == Label::kRobot,
+               r2 = world.geom_label(con.geom2) == Label::kRobot;
     if (!r1 && !r2) continue;
     if (r1 && r2 && con.dist > 0) continue;  // the margin is for the cell; the arm's own links may be close
     const int robot = r1 ? con.geom1 : con.geom2, other = r1 ? con.geom2 : con.geom1;

@@ -27,8 +27,9 @@ class PartClearance {
 
 class CollisionChecker {
  public:
-  /// Robot surfaces closer than `margin_m` (MuJoCo measures the distance of convex shapes reliably only when they
-  /// overlap: keep it 0 unless all geoms are boxes and spheres) to the table, a clamp or clutter count as a collision.
+  /// Robot surfaces closer than `margin_m` (MuJoCo measures the distance of convex shapes reliably only when
+  /// they overlap: keep it 0 unless all geoms are boxes and spheres) to the table, a clamp or clutter count
+  /// as a collision.
   explicit CollisionChecker(const MujocoWorld& world, double margin_m = 0.0);
 
   /// Also keep the robot `margin_m` away from the part's exact mesh at T_base_part (for planning: the pose

@@ -55,7 +55,8 @@ struct OffscreenRenderer::Impl {
   mjvOption option;
 };
 
-OffscreenRenderer::OffscreenRenderer(const mjModel* model, int width, int height) : impl_(std::make_unique<Impl>()) {
+OffscreenRenderer::OffscreenRenderer(const mjModel* model, int width, int height)
+    : impl_(std::make_unique<Impl>()) {
   if (width > model->vis.global.offwidth || height > model->vis.global.offheight)
     throw std::invalid_argument("renderer: the model's offscreen buffer is smaller than the picture");
   Impl& r = *impl_;
@@ -111,7 +112,8 @@ Image OffscreenRenderer::render(mjData* data, const View& view, const Overlay& o
     mjvGeom& geom = r.scene.geoms[g];
     const bool is_geom = geom.objtype == mjOBJ_GEOM && geom.objid >= 0;
     if (is_geom && geom.objid == part_geom) geom.rgba[3] = overlay.part_alpha;
-    if (is_geom && static_cast<size_t>(geom.objid) < overlay.hide_geom.size() && overlay.hide_geom[static_cast<size_t>(geom.objid)])
+    if (is_geom && static_cast<size_t>(geom.objid) < overlay.hide_geom.size() &&
+        overlay.hide_geom[static_cast<size_t>(geom.objid)])
       continue;
     if (is_geom && geom.objid == part_geom && overlay.part_alpha <= 0.0f) continue;
     r.scene.geoms[kept++] = geom;

@@ -37,7 +37,7 @@ struct Overlay {
   int ghost_mesh = -1;  ///< a model mesh id drawn again at ghost_pose (e.g. the part where it was found)
   Iso3 ghost_pose = Iso3::Identity();
   Rgba ghost_rgba{0.2f, 0.5f, 1.0f, 0.45f};
-  float part_alpha = 1.0f;        ///< transparency of the real part (geoms named "part")
+  float part_alpha = 1.0f;         ///< transparency of the real part (geoms named "part")
   std::vector<uint8_t> hide_geom;  ///< by model geom id: non-zero = not drawn
 };
 

@@ -46,7 +46,9 @@ class JointReference {
     const JointVector m0 = v_[k_] * h, m1 = v_[k_ + 1] * h;
     const double u2 = u * u, u3 = u2 * u;
     q = (2 * u3 - 3 * u2 + 1) * p0 + (u3 - 2 * u2 + u) * m0 + (-2 * u3 + 3 * u2) * p1 + (u3 - u2) * m1;
-    qd = ((6 * u2 - 6 * u) * p0 + (3 * u2 - 4 * u + 1) * m0 + (-6 * u2 + 6 * u) * p1 + (3 * u2 - 2 * u) * m1) / h;
+    qd =
+        ((6 * u2 - 6 * u) * p0 + (3 * u2 - 4 * u + 1) * m0 + (-6 * u2 + 6 * u) * p1 + (3 * u2 - 2 * u) * m1) /
+        h;
     qdd = ((12 * u - 6) * p0 + (6 * u - 4) * m0 + (-12 * u + 6) * p1 + (6 * u - 2) * m1) / (h * h);
   }
 
@@ -72,7 +74,8 @@ std::string fmt(const char* f, double a, double b = 0.0) {
 double distance_to_seam(const PartSpec& part, int seam, const Iso3& T_base_part, const Vec3& p) {
   const Seam& s = part.seams.at(static_cast<size_t>(seam));
   const Vec3 q = T_base_part.inverse() * p;
-  const int n = s.kind == Seam::Kind::kLine ? 1 : std::max(8, static_cast<int>(std::ceil(s.length_m() / 2e-4)));
+  const int n =
+      s.kind == Seam::Kind::kLine ? 1 : std::max(8, static_cast<int>(std::ceil(s.length_m() / 2e-4)));
   double best = std::numeric_limits<double>::infinity();
   Vec3 a = s.point_at(0.0);
   for (int i = 1; i <= n; ++i) {
@@ -233,7 +236,8 @@ ReplayResult replay_plan(const MujocoWorld& world, const RobotModel& robot, cons
     // The nearest true seam: a pose turned by the part's symmetry welds the same seams in another order.
     r.seam_error_m = std::numeric_limits<double>::infinity();
     for (size_t s = 0; s < part.seams.size(); ++s)
-      r.seam_error_m = std::min(r.seam_error_m, distance_to_seam(part, static_cast<int>(s), T_base_part_true, r.tcp));
+      r.seam_error_m =
+          std::min(r.seam_error_m, distance_to_seam(part, static_cast<int>(s), T_base_part_true, r.tcp));
     SeamFigure& f = out.seams[static_cast<size_t>(r.seam)];
     ++f.samples;
     f.rms_error_m += r.seam_error_m * r.seam_error_m;
@@ -252,11 +256,13 @@ ReplayResult replay_plan(const MujocoWorld& world, const RobotModel& robot, cons
     out.failures.push_back("contact: " + c.robot_geom + " with " + c.other_geom + " (" + label_name(c.other) +
                            fmt(") from t = %.2f s, %.1f mm deep", c.first_t_s, 1e3 * c.max_depth_m));
   if (worst_seam >= 0 && out.max_seam_error_m > setting.max_seam_error_m)
-    out.failures.push_back("seam '" + part.seams[static_cast<size_t>(worst_seam)].name + "': the torch is " +
-                           fmt("%.2f mm from the true seam at t = %.2f s", 1e3 * out.max_seam_error_m, worst_seam_t));
+    out.failures.push_back(
+        "seam '" + part.seams[static_cast<size_t>(worst_seam)].name + "': the torch is " +
+        fmt("%.2f mm from the true seam at t = %.2f s", 1e3 * out.max_seam_error_m, worst_seam_t));
   if (out.min_clearance_m < setting.min_clearance_m)
-    out.failures.push_back(out.min_clearance_geom + (out.min_clearance_m < 0 ? " enters the part" : " touches the part") +
-                           fmt(" at t = %.2f s (clearance %.1f mm)", out.min_clearance_t_s, 1e3 * out.min_clearance_m));
+    out.failures.push_back(
+        out.min_clearance_geom + (out.min_clearance_m < 0 ? " enters the part" : " touches the part") +
+        fmt(" at t = %.2f s (clearance %.1f mm)", out.min_clearance_t_s, 1e3 * out.min_clearance_m));
   if (out.max_tcp_tracking_m > setting.max_tracking_m)
     out.failures.push_back(fmt("tracking: the TCP is %.2f mm off the plan while welding at t = %.2f s",
                                1e3 * out.max_tcp_tracking_m, worst_track_t));

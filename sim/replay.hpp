@@ -16,13 +16,13 @@
 namespace weldtwin {
 
 struct ReplaySetting {
-  double timestep_s = 0.001;       ///< physics step
-  double bandwidth_hz = 12.0;      ///< servo bandwidth (PD gains from each joint's inertia at the start)
-  double damping_ratio = 1.0;      ///< of the servo loops
-  double max_seam_error_m = 1e-3;  ///< every arc-on TCP must be this close to the true seam
-  double min_clearance_m = 0.001;  ///< robot surfaces closer to the part than this (inside: < 0) fail
-  double clearance_range_m = 0.05; ///< clearances beyond this are not resolved (reported as this)
-  double max_tracking_m = 5e-4;    ///< arc-on TCP tracking error allowed
+  double timestep_s = 0.001;        ///< physics step
+  double bandwidth_hz = 12.0;       ///< servo bandwidth (PD gains from each joint's inertia at the start)
+  double damping_ratio = 1.0;       ///< of the servo loops
+  double max_seam_error_m = 1e-3;   ///< every arc-on TCP must be this close to the true seam
+  double min_clearance_m = 0.001;   ///< robot surfaces closer to the part than this (inside: < 0) fail
+  double clearance_range_m = 0.05;  ///< clearances beyond this are not resolved (reported as this)
+  double max_tracking_m = 5e-4;     ///< arc-on TCP tracking error allowed
 };
 
 /// A pair of geoms in contact (penetration or touch), first seen at t_s.
@@ -37,7 +37,7 @@ struct ReplayContact {
 struct ReplaySample {
   double t_s = 0.0;
   JointVector q_ref = JointVector::Zero(), q = JointVector::Zero();  ///< planned and executed [rad]
-  Vec3 tcp_ref = Vec3::Zero(), tcp = Vec3::Zero();                  ///< planned and executed TCP, base
+  Vec3 tcp_ref = Vec3::Zero(), tcp = Vec3::Zero();                   ///< planned and executed TCP, base
   int seam = -1;
   bool arc = false;
   double seam_error_m = -1.0;  ///< arc-on: executed TCP to the nearest true seam; -1 otherwise
@@ -55,10 +55,10 @@ struct ReplayResult {
   std::vector<ReplaySample> samples;  ///< one per plan sample
   std::vector<ReplayContact> contacts;
   std::vector<SeamFigure> seams;
-  double max_tracking_rad = 0.0;     ///< largest joint error over the whole run
-  double max_tcp_tracking_m = 0.0;   ///< largest arc-on TCP error (executed against planned)
-  double max_seam_error_m = 0.0;     ///< largest arc-on distance to the true seam
-  double min_clearance_m = 0.0;      ///< robot to the part, over the whole run
+  double max_tracking_rad = 0.0;    ///< largest joint error over the whole run
+  double max_tcp_tracking_m = 0.0;  ///< largest arc-on TCP error (executed against planned)
+  double max_seam_error_m = 0.0;    ///< largest arc-on distance to the true seam
+  double min_clearance_m = 0.0;     ///< robot to the part, over the whole run
   std::string min_clearance_geom;
   double min_clearance_t_s = 0.0;
   double wall_s = 0.0;

@@ -99,10 +99,12 @@ TEST(Replay, APlanThroughAClampFailsWithTheClampNamed) {
   EXPECT_NEAR((mid.tcp_ref - target).norm(), 0.0, 1e-6);
   EXPECT_FALSE(r.passed());
   bool clamp = false;
-  for (const ReplayContact& c : r.contacts) clamp |= c.other == Label::kClamp && c.other_geom.rfind("clamp0", 0) == 0;
+  for (const ReplayContact& c : r.contacts)
+    clamp |= c.other == Label::kClamp && c.other_geom.rfind("clamp0", 0) == 0;
   EXPECT_TRUE(clamp);
   bool named = false;
-  for (const std::string& f : r.failures) named |= f.find("contact:") == 0 && f.find("clamp0") != std::string::npos;
+  for (const std::string& f : r.failures)
+    named |= f.find("contact:") == 0 && f.find("clamp0") != std::string::npos;
   EXPECT_TRUE(named) << (r.failures.empty() ? "no failures" : r.failures.front());
 }
 
