@@ -93,7 +93,7 @@ int run_job(const RunCommand& cmd) {
   if (pose.found) {
     // The table, clamps and clutter as the twin has them; the part where it was found.
     CollisionChecker checker(world);
-    checker.add_part(mesh, pose.T_base_part, 0.0);
+    checker.add_part(mesh, pose.T_base_part);
     plan_setting.collision = checker;
     plan = plan_welds(part, pose.T_base_part, robot, plan_setting);
     std::ofstream(cmd.out + "/plan.json") << plan_to_json(plan, part, robot, plan_setting).dump() << '\n';

@@ -1,8 +1,11 @@
 #include "planning/weld_planner.hpp"
 
 #include <algorithm>
+#include <functional>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <random>
 #include <optional>
 #include <sstream>
 
@@ -44,6 +47,92 @@ Iso3 backed_off(const Iso3& T_tcp, double distance) {
   return T;
 }
 
+// A collision-free joint-space path from `a` to `b` (both free) by RRT-Connect: two trees grown towards
+// random configurations within the limits and towards each other, every edge checked at `step` rad; then
+// shortened by cutting corners that are free. Deterministic (fixed seed). Empty when none is found.
+std::vector<JointVector> free_path(const JointVector& a, const JointVector& b, const JointVector& lower,
+                                   const JointVector& upper,
+                                   const std::function<bool(const JointVector&)>& free, int max_nodes = 4000,
+                                   double step = 0.02, double reach = 0.4) {
+  auto edge_free = [&](const JointVector& p, const JointVector& q) {
+    const int n = std::max(1, static_cast<int>(std::ceil((q - p).cwiseAbs().maxCoeff() / step)));
+    for (int i = 1; i <= n; ++i)
+      if (!free(p + (q - p) * (static_cast<double>(i) / n))) return false;
+    return true;
+  };
+  if (edge_free(a, b)) return {a, b};
+  struct Tree {
+    std::vector<JointVector> q;
+    std::vector<int> parent;
+  };
+  Tree ta{{a}, {-1}}, tb{{b}, {-1}};
+  std::mt19937_64 rng(12345);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  auto nearest = [](const Tree& t, const JointVector& q) {
+    int best = 0;
+    double d = 1e300;
+    for (size_t i = 0; i < t.q.size(); ++i) {
+      const double di = (t.q[i] - q).squaredNorm();
+      if (di < d) {
+        d = di;
+        best = static_cast<int>(i);
+      }
+    }
+    return best;
+  };
+  // Extends `t` from its node nearest `target` by at most `reach`; returns the new node or -1.
+  auto extend = [&](Tree& t, const JointVector& target) {
+    const int n = nearest(t, target);
+    JointVector q = target;
+    const double d = (target - t.q[static_cast<size_t>(n)]).norm();
+    if (d > reach) q = t.q[static_cast<size_t>(n)] + (target - t.q[static_cast<size_t>(n)]) * (reach / d);
+    if (!edge_free(t.q[static_cast<size_t>(n)], q)) return -1;
+    t.q.push_back(q);
+    t.parent.push_back(n);
+    return static_cast<int>(t.q.size()) - 1;
+  };
+  auto branch = [](const Tree& t, int i) {
+    std::vector<JointVector> out;
+    for (; i >= 0; i = t.parent[static_cast<size_t>(i)]) out.push_back(t.q[static_cast<size_t>(i)]);
+    return out;  // from node i back to the root
+  };
+  std::vector<JointVector> path;
+  for (int it = 0; it < max_nodes && path.empty(); ++it) {
+    JointVector target;
+    for (int j = 0; j < 6; ++j) target[j] = lower[j] + (upper[j] - lower[j]) * u01(rng);
+    const int na = extend(ta, target);
+    if (na < 0) {
+      std::swap(ta, tb);
+      continue;
+    }
+    // Connect: grow the other tree towards the new node until it is reached or blocked.
+    int nb = -1;
+    for (int k = 0; k < 200; ++k) {
+      nb = extend(tb, ta.q[static_cast<size_t>(na)]);
+      if (nb < 0) break;
+      if ((tb.q[static_cast<size_t>(nb)] - ta.q[static_cast<size_t>(na)]).norm() < 1e-9) {
+        std::vector<JointVector> pa = branch(ta, na), pb = branch(tb, nb);
+        std::reverse(pa.begin(), pa.end());
+        pa.insert(pa.end(), pb.begin() + 1, pb.end());
+        path = pa;
+        break;
+      }
+    }
+    std::swap(ta, tb);
+  }
+  if (path.empty()) return path;
+  if ((path.front() - a).norm() > 1e-12) std::reverse(path.begin(), path.end());
+  // Shortcuts: join two random waypoints directly where that is free.
+  for (int it = 0; it < 200 && path.size() > 2; ++it) {
+    const size_t i = static_cast<size_t>(u01(rng) * static_cast<double>(path.size()));
+    const size_t j = static_cast<size_t>(u01(rng) * static_cast<double>(path.size()));
+    const size_t lo = std::min(i, j), hi = std::max(i, j);
+    if (hi >= path.size() || hi - lo < 2) continue;
+    if (edge_free(path[lo], path[hi])) path.erase(path.begin() + static_cast<long>(lo) + 1, path.begin() + static_cast<long>(hi));
+  }
+  return path;
+}
+
 class Builder {
  public:
   Builder(const RobotModel& robot, const PlanSetting& setting, WeldPlan& plan)
@@ -83,7 +172,7 @@ class Builder {
       std::array<double, 8> worst;
       worst.fill(std::numeric_limits<double>::infinity());
       std::array<JointVector, 8> last, first;
-      std::array<std::vector<JointVector>, 8> stations_q;  // for the collision test of a winner
+      std::array<std::vector<std::pair<JointVector, bool>>, 8> stations_q;  // for the collision test of a winner
       // Stations along the stretch, plus its approach (k = -1) and departure (k = stations + 1) poses.
       for (int k = -1; k <= stations + 1; ++k) {
         const Iso3 pose = k < 0          ? backed_off(g.tcp(s0, roll), set_.approach_m)
@@ -98,7 +187,7 @@ class Builder {
             m = -1.0;
           worst[static_cast<size_t>(b)] = std::min(worst[static_cast<size_t>(b)], m);
           if (s.valid) last[static_cast<size_t>(b)] = s.q;
-          if (set_.collision && m >= 0) stations_q[static_cast<size_t>(b)].push_back(s.q);
+          if (set_.collision && m >= 0) stations_q[static_cast<size_t>(b)].emplace_back(s.q, k >= 0 && k <= stations);
           if (k < 0) first[static_cast<size_t>(b)] = s.q;
         }
         // Stop on this roll once no branch can still win.
@@ -109,7 +198,10 @@ class Builder {
       for (int b = 0; b < 8; ++b) {
         const double m = worst[static_cast<size_t>(b)] + (b == prefer_branch ? 0.05 : 0.0);
         if (worst[static_cast<size_t>(b)] < 0 || m <= best.margin) continue;
-        if (collides(stations_q[static_cast<size_t>(b)])) continue;
+        if (collides(stations_q[static_cast<size_t>(b)]) ||
+            collides_on_the_way(g.tcp(s0, roll), b, first[static_cast<size_t>(b)]) ||
+            collides_on_the_way(g.tcp(s1, roll), b, last[static_cast<size_t>(b)]))
+          continue;
         best = {true, roll, b, m, first[static_cast<size_t>(b)]};
       }
       if (any_will_do && best.ok) return best;  // feasibility is all the caller asks
@@ -117,16 +209,42 @@ class Builder {
     return best;
   }
 
-  // Whether any of the configurations collides with the cell (never, without a collision test).
-  bool collides(const std::vector<JointVector>& qs, std::string* what = nullptr) const {
+  // Whether any of the configurations (each with whether the arc is on) collides with the cell (never,
+  // without a collision test). What was hit is counted for the message of an unreachable seam.
+  bool collides(const std::vector<std::pair<JointVector, bool>>& qs) const {
     if (!set_.collision) return false;
-    for (const JointVector& q : qs) {
-      std::string hit = set_.collision(q);
+    for (const auto& [q, welding] : qs) {
+      std::string hit = set_.collision(q, welding);
       if (hit.empty()) continue;
-      if (what) *what = std::move(hit);
+      ++hits_[hit];
       return true;
     }
     return false;
+  }
+
+  // Whether the approach to (or departure from) the weld pose `at` along the torch axis, on branch `b`,
+  // collides between its ends (the ends are stations).
+  bool collides_on_the_way(const Iso3& at, int b, const JointVector& q_near) const {
+    if (!set_.collision) return false;
+    std::vector<std::pair<JointVector, bool>> qs;
+    for (double f : {0.1, 0.25, 0.5, 0.75}) {
+      const IkSolution sol = ik_.solve_branch(backed_off(at, f * set_.approach_m), b, q_near[5]);
+      if (sol.valid) qs.emplace_back(sol.q, false);
+    }
+    return collides(qs);
+  }
+
+  // The most frequent collision that ruled out candidates since the last call, for a message.
+  std::string main_collision() const {
+    std::string what;
+    int most = 0;
+    for (const auto& [hit, n] : hits_)
+      if (n > most) {
+        most = n;
+        what = hit;
+      }
+    hits_.clear();
+    return what;
   }
 
   // The collision, if any, of the samples from index `from` on (every other one: 10 ms apart).
@@ -134,13 +252,14 @@ class Builder {
     std::string what;
     if (!set_.collision) return what;
     for (size_t k = from; k < plan_.samples.size(); k += 2)
-      if (!(what = set_.collision(plan_.samples[k].q)).empty()) break;
+      if (!(what = set_.collision(plan_.samples[k].q, plan_.samples[k].arc)).empty()) break;
     return what;
   }
 
   // A transit to `to` (an approach's first pose, or home) that does not hit the cell: straight in joint
-  // space if that is free; otherwise back along the torch axis from here, across in joint space, and in
-  // along the torch axis to `to`.
+  // space if that is free; otherwise out of here along a straight line (straight up, or back along the
+  // torch axis), across in joint space (directly, or by way of home, the arm folded up clear of the table),
+  // and into `to` along the same kind of line.
   bool transit(const JointVector& to, const std::string& what) {
     const size_t n0 = plan_.samples.size();
     const JointVector q0 = q_;
@@ -152,44 +271,64 @@ class Builder {
     q_ = q0;
     t_ = t0;
     const Iso3 here = ik_.fk(q_), there = ik_.fk(to);
-    for (const bool vertical : {true, false}) {
-      // Straight up above both poses, or back along the torch axis (how the torch reached them).
-      Iso3 up_here = backed_off(here, set_.transit_lift_m), up_there = backed_off(there, set_.transit_lift_m);
-      if (vertical) {
-        up_here = here;
-        up_there = there;
-        const double top = std::max(here.translation().z(), there.translation().z()) + set_.transit_lift_m;
-        up_here.translation().z() = top;
-        up_there.translation().z() = top;
+    const double top = std::max(here.translation().z(), there.translation().z()) + set_.transit_lift_m;
+    auto up = [&](const Iso3& T) {
+      Iso3 U = T;
+      U.translation().z() = top;
+      return U;
+    };
+    for (const bool via_home : {false, true})
+      for (const bool vertical : {true, false}) {
+        if (via_home && (at_home(q_) || at_home(to))) continue;
+        const Iso3 out = vertical ? up(here) : backed_off(here, set_.transit_lift_m);
+        const Iso3 in = vertical ? up(there) : backed_off(there, set_.transit_lift_m);
+        const bool legs = leg_out_across_in(here, out, via_home, in, there, to, what);
+        if (legs && collision_since(n0).empty()) return true;
+        plan_.samples.resize(n0);
+        q_ = q0;
+        t_ = t0;
       }
-      const size_t p0 = plan_.problems.size();
-      const int saved = branch_;
-      branch_ = branch_of(here, q_);
-      bool ok = branch_ >= 0 && line(here, up_here, Phase::kTransit, what);
-      if (ok && (branch_ = branch_of(there, to)) >= 0) {
-        // Across at the top in joint space, to the configuration of `to`'s own branch above it.
-        const IkSolution above = ik_.solve_branch(up_there, branch_, to[5]);
-        ok = above.valid && above.within_limits;
-        if (ok) {
-          JointVector q_above = above.q;
-          for (int j = 0; j < 6; ++j) q_above[j] = to[j] + std::remainder(q_above[j] - to[j], 2.0 * kPi);
-          joint_move(q_above);
-          ok = line(up_there, there, Phase::kTransit, what) && (q_ - to).cwiseAbs().maxCoeff() < 1e-6;
-        }
-      } else {
-        ok = false;
-      }
-      branch_ = saved;
-      plan_.problems.resize(p0);
-      std::string lifted_hit;
-      if (ok && (lifted_hit = collision_since(n0)).empty()) return true;
+    // Last: a path found in the free joint space, run waypoint to waypoint.
+    const std::vector<JointVector> path =
+        free_path(q_, to, robot_.lower(), robot_.upper(),
+                  [&](const JointVector& q) { return set_.collision(q, false).empty(); });
+    if (!path.empty()) {
+      for (size_t k = 1; k < path.size(); ++k) joint_move(path[k]);
+      if ((q_ - to).cwiseAbs().maxCoeff() < 1e-9) return true;
       plan_.samples.resize(n0);
       q_ = q0;
       t_ = t0;
     }
-    problem(what + ": collides with " + hit + " (straight, and lifted up or back along the torch too)");
+    problem(what + ": collides with " + hit + " (straight, lifted, by way of home, or any way found in " +
+            "joint space)");
     return false;
   }
+
+  // here -> out (line) -> [home] -> in (joint space) -> there (line, ending at `to`). Records no problems.
+  bool leg_out_across_in(const Iso3& here, const Iso3& out, bool via_home, const Iso3& in, const Iso3& there,
+                         const JointVector& to, const std::string& what) {
+    const size_t p0 = plan_.problems.size();
+    const int saved = branch_;
+    bool ok = (branch_ = branch_of(here, q_)) >= 0 && line(here, out, Phase::kTransit, what);
+    if (ok && via_home) joint_move(set_.home);
+    if (ok && (branch_ = branch_of(there, to)) >= 0) {
+      const IkSolution sol = ik_.solve_branch(in, branch_, to[5]);
+      ok = sol.valid && sol.within_limits;
+      if (ok) {
+        JointVector q_in = sol.q;
+        for (int j = 0; j < 6; ++j) q_in[j] = to[j] + std::remainder(q_in[j] - to[j], 2.0 * kPi);
+        joint_move(q_in);
+        ok = line(in, there, Phase::kTransit, what) && (q_ - to).cwiseAbs().maxCoeff() < 1e-6;
+      }
+    } else {
+      ok = false;
+    }
+    branch_ = saved;
+    plan_.problems.resize(p0);
+    return ok;
+  }
+
+  bool at_home(const JointVector& q) const { return (q - set_.home).cwiseAbs().maxCoeff() < 1e-9; }
 
   // The IK branch that puts the TCP at T with the configuration q, or -1.
   int branch_of(const Iso3& T, const JointVector& q) const {
@@ -358,6 +497,7 @@ class Builder {
   double t_ = 0.0;
   double slow_ = 1.0;  ///< duration factor of the piece being tried (checked())
   int branch_ = 0;     ///< IK branch of the seam being welded
+  mutable std::map<std::string, int> hits_;  ///< collisions that ruled out candidates
 };
 
 }  // namespace
@@ -431,11 +571,13 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
         if (s1 - s0 < 0.01) c.ok = false;
       }
       if (!c.ok) {
+        const std::string hit = b.main_collision();
         plan.problems.push_back(what +
                                 (seam.torch_roll_rad ? ": unreachable with its torch roll"
                                                      : ": unreachable with any torch roll") +
-                                " (out of reach, or closer than the set margins to the joint limits or to a"
-                                " singularity)");
+                                (hit.empty() ? " (out of reach, or closer than the set margins to the joint limits or to a"
+                                               " singularity)"
+                                             : " (where the arm reaches it, it collides: " + hit + ")"));
         break;
       }
       pieces.emplace_back(s0, s1);

@@ -32,10 +32,11 @@ struct PlanSetting {
   double min_margin_rad = deg2rad(3);  ///< joint-limit margin a free-roll choice must keep
   double min_singularity_sine = 0.08;  ///< how far (IkSolution margins) a choice must stay from singularities
   JointVector home = (JointVector() << 0, 0, kPi / 2, 0, kPi / 2, 0).finished();  ///< start and end [rad]
-  /// What the arm at q collides with ("" when free), from whoever knows the cell (the twin's
-  /// CollisionChecker). When set, IK branches and torch rolls whose stations collide are not chosen, and a
-  /// transit that would collide is lifted above the table instead. Unset: no collision checks.
-  std::function<std::string(const JointVector&)> collision;
+  /// What the arm at q collides with ("" when free; `welding`: the arc is on, the torch is meant to be close
+  /// to the part), from whoever knows the cell (the twin's CollisionChecker). When set, IK branches and torch
+  /// rolls whose stations, approaches or departures collide are not chosen, and a transit that would collide
+  /// is lifted instead. Unset: no collision checks.
+  std::function<std::string(const JointVector& q, bool welding)> collision;
   double transit_lift_m = 0.15;  ///< how far a lifted transit backs off along the torch axis at both ends
 };
 

@@ -172,7 +172,7 @@ void CollisionChecker::add_part(const Mesh& part_mesh, const Iso3& T_base_part, 
   state_->part_margin = margin_m;
 }
 
-std::string CollisionChecker::operator()(const JointVector& q) const {
+std::string CollisionChecker::operator()(const JointVector& q, bool welding) const {
   const mjModel* m = state_->model.get();
   mjData* d = state_->data.get();
   const MujocoWorld& world = *state_->world;
@@ -192,7 +192,7 @@ std::string CollisionChecker::operator()(const JointVector& q) const {
   }
   if (state_->part) {
     std::string geom;
-    if (state_->part->clearance(d, &geom) < state_->part_margin) return geom + " with the part";
+    if (state_->part->clearance(d, &geom) < (welding ? 0.0 : state_->part_margin)) return geom + " with the part";
   }
   return "";
 }

@@ -33,12 +33,13 @@ class CollisionChecker {
   explicit CollisionChecker(const MujocoWorld& world, double margin_m = 0.0);
 
   /// Also keep the robot `margin_m` away from the part's exact mesh at T_base_part (for planning: the pose
-  /// that was found).
-  void add_part(const Mesh& part_mesh, const Iso3& T_base_part, double margin_m = 0.001);
+  /// that was found; the margin covers its error) — while welding only out of it (the torch is meant to be
+  /// close to the joint).
+  void add_part(const Mesh& part_mesh, const Iso3& T_base_part, double margin_m = 0.0015);
 
   /// "" when the arm at q is clear, else "ROBOT_GEOM with OTHER_GEOM". Not thread-safe (one mjData); copies
   /// share it.
-  std::string operator()(const JointVector& q) const;
+  std::string operator()(const JointVector& q, bool welding = false) const;
 
  private:
   struct State;

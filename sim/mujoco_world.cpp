@@ -146,12 +146,13 @@ void clamp_xml(std::ostringstream& os, int index, const ClampPlacement& c) {
   num.pose(c.T_base_clamp);
   os << ">\n";
   cylinder_geom(os, n + "_pad", Vec3(0, 0, 0.004), ClampDims::kPadRadius, 0.004, "0.1 0.1 0.1 1");
-  cylinder_geom(os, n + "_spindle", Vec3(0, 0, 0.028), 0.005, 0.020, "0.75 0.75 0.72 1");
-  box_geom(os, n + "_arm", Vec3(0.048, 0, 0.052), Vec3(0.052, 0.012, 0.006));
-  box_geom(os, n + "_post", Vec3(0.09, 0, 0.5 * (0.058 - h)), Vec3(0.012, 0.015, 0.5 * (h + 0.058)));
+  // A low-profile hold-down: the arm 28 mm above the pad, so that a torch at 45 deg passes over it.
+  cylinder_geom(os, n + "_spindle", Vec3(0, 0, 0.016), 0.005, 0.008, "0.75 0.75 0.72 1");
+  box_geom(os, n + "_arm", Vec3(0.048, 0, 0.028), Vec3(0.052, 0.012, 0.006));
+  box_geom(os, n + "_post", Vec3(0.09, 0, 0.5 * (0.034 - h)), Vec3(0.012, 0.015, 0.5 * (h + 0.034)));
   box_geom(os, n + "_base", Vec3(0.5 * (ClampDims::kBaseStart + ClampDims::kBaseEnd), 0, -h + 0.006),
            Vec3(0.5 * (ClampDims::kBaseEnd - ClampDims::kBaseStart), ClampDims::kHalfWidth, 0.006));
-  box_geom(os, n + "_handle", Vec3(0.165, 0, 0.08), Vec3(0.065, 0.009, 0.009),
+  box_geom(os, n + "_handle", Vec3(0.165, 0, 0.056), Vec3(0.065, 0.009, 0.009),
            Eigen::AngleAxisd(-0.35, Vec3::UnitY()).toRotationMatrix(), "0.85 0.1 0.1 1");
   os << "</body>\n";
 }

@@ -76,9 +76,10 @@ TEST(Replay, APlanThroughAClampFailsWithTheClampNamed) {
   ASSERT_FALSE(cell.layout.clamps.empty());
   const Mesh mesh = load_mesh(cell.part.mesh_path);
   // A straight joint-space move from home down through the first clamp's arm, torch pointing down, and back:
-  // the TCP (the wire's end) 30 mm below the arm's middle puts the nozzle into the arm.
+  // the arm's outer part (beyond the plate, 22-34 mm above the pad's contact point) with the TCP (the
+  // wire's end) 27.5 mm below its middle, which puts the nozzle (15-40 mm above the TCP) into it.
   const Iso3 T_base_clamp = cell.layout.clamps.front().T_base_clamp;
-  const Vec3 target = T_base_clamp * Vec3(0.045, 0.0, 0.052 - 0.03);
+  const Vec3 target = T_base_clamp * Vec3(0.08, 0.0, 0.028 - 0.0275);
   const Iso3 T_base_tcp = make_transform(target, Eigen::AngleAxisd(kPi, Vec3::UnitX()).toRotationMatrix());
   WeldPlan plan;
   const PlanSetting setting;
