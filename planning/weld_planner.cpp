@@ -38,8 +38,15 @@ struct Choice {
   double roll = 0.0;
   int branch = -1;
   double margin = -1.0;
-  JointVector q_start = JointVector::Zero();
+  JointVector q_start = JointVector::Zero();  ///< at the approach's first pose
+  Vec3 in_dir = Vec3::Zero(), out_dir = Vec3::Zero();  ///< unit, from the weld's start (end) to the approach (departure) pose
 };
+
+Iso3 moved(const Iso3& T, const Vec3& direction, double distance) {
+  Iso3 out = T;
+  out.translation() += distance * direction;
+  return out;
+}
 
 Iso3 backed_off(const Iso3& T_tcp, double distance) {
   Iso3 T = T_tcp;
@@ -187,7 +194,7 @@ class Builder {
             m = -1.0;
           worst[static_cast<size_t>(b)] = std::min(worst[static_cast<size_t>(b)], m);
           if (s.valid) last[static_cast<size_t>(b)] = s.q;
-          if (set_.collision && m >= 0) stations_q[static_cast<size_t>(b)].emplace_back(s.q, k >= 0 && k <= stations);
+          if (set_.collision && m >= 0 && k >= 0 && k <= stations) stations_q[static_cast<size_t>(b)].emplace_back(s.q, true);
           if (k < 0) first[static_cast<size_t>(b)] = s.q;
         }
         // Stop on this roll once no branch can still win.
@@ -198,11 +205,23 @@ class Builder {
       for (int b = 0; b < 8; ++b) {
         const double m = worst[static_cast<size_t>(b)] + (b == prefer_branch ? 0.05 : 0.0);
         if (worst[static_cast<size_t>(b)] < 0 || m <= best.margin) continue;
-        if (collides(stations_q[static_cast<size_t>(b)]) ||
-            collides_on_the_way(g.tcp(s0, roll), b, first[static_cast<size_t>(b)]) ||
-            collides_on_the_way(g.tcp(s1, roll), b, last[static_cast<size_t>(b)]))
+        const auto rejected = [&] {  // the best candidate a collision ruled out names the problem
+          if (m > rejected_margin_) {
+            rejected_margin_ = m;
+            rejected_hit_ = last_hit_;
+          }
+        };
+        if (collides(stations_q[static_cast<size_t>(b)])) {
+          rejected();
           continue;
-        best = {true, roll, b, m, first[static_cast<size_t>(b)]};
+        }
+        const auto in = clear_way(g.tcp(s0, roll), b, first[static_cast<size_t>(b)]);
+        const auto out = in ? clear_way(g.tcp(s1, roll), b, last[static_cast<size_t>(b)]) : std::nullopt;
+        if (!in || !out) {
+          if (!last_hit_.empty()) rejected();
+          continue;
+        }
+        best = {true, roll, b, m, in->second, in->first, out->first};
       }
       if (any_will_do && best.ok) return best;  // feasibility is all the caller asks
     }
@@ -216,34 +235,41 @@ class Builder {
     for (const auto& [q, welding] : qs) {
       std::string hit = set_.collision(q, welding);
       if (hit.empty()) continue;
-      ++hits_[hit];
+      last_hit_ = hit;
       return true;
     }
     return false;
   }
 
-  // Whether the approach to (or departure from) the weld pose `at` along the torch axis, on branch `b`,
-  // collides between its ends (the ends are stations).
-  bool collides_on_the_way(const Iso3& at, int b, const JointVector& q_near) const {
-    if (!set_.collision) return false;
-    std::vector<std::pair<JointVector, bool>> qs;
-    for (double f : {0.1, 0.25, 0.5, 0.75}) {
-      const IkSolution sol = ik_.solve_branch(backed_off(at, f * set_.approach_m), b, q_near[5]);
-      if (sol.valid) qs.emplace_back(sol.q, false);
+  // A clear way to (or from) the weld pose `at` on branch `b`: back along the torch axis, or else straight
+  // up; the direction and the configuration at its far end, or nothing when both collide or leave the
+  // branch. Without a collision test, the torch axis.
+  std::optional<std::pair<Vec3, JointVector>> clear_way(const Iso3& at, int b, const JointVector& q_near) const {
+    last_hit_.clear();
+    for (const Vec3& dir : {Vec3(-at.linear().col(2)), Vec3(Vec3::UnitZ())}) {
+      std::vector<std::pair<JointVector, bool>> qs;
+      JointVector prev = q_near;
+      bool ok = true;
+      for (double f : {1.0, 0.75, 0.5, 0.25, 0.1}) {
+        const IkSolution sol = ik_.solve_branch(moved(at, dir, f * set_.approach_m), b, prev[5]);
+        if (!sol.valid || !sol.within_limits || (f < 1.0 && (sol.q - prev).cwiseAbs().maxCoeff() > 0.3)) {
+          ok = false;
+          break;
+        }
+        qs.emplace_back(sol.q, false);
+        prev = sol.q;
+      }
+      if (ok && !collides(qs)) return std::make_pair(dir, qs.front().first);
+      if (!set_.collision) break;
     }
-    return collides(qs);
+    return std::nullopt;
   }
 
-  // The most frequent collision that ruled out candidates since the last call, for a message.
+  // The collision that ruled out the best candidate since the last call, for a message ("" if none did).
   std::string main_collision() const {
-    std::string what;
-    int most = 0;
-    for (const auto& [hit, n] : hits_)
-      if (n > most) {
-        most = n;
-        what = hit;
-      }
-    hits_.clear();
+    std::string what = rejected_hit_;
+    rejected_hit_.clear();
+    rejected_margin_ = -1.0;
     return what;
   }
 
@@ -497,7 +523,9 @@ class Builder {
   double t_ = 0.0;
   double slow_ = 1.0;  ///< duration factor of the piece being tried (checked())
   int branch_ = 0;     ///< IK branch of the seam being welded
-  mutable std::map<std::string, int> hits_;  ///< collisions that ruled out candidates
+  mutable std::string last_hit_;      ///< the latest collision found
+  mutable std::string rejected_hit_;  ///< what ruled out the best candidate since main_collision()
+  mutable double rejected_margin_ = -1.0;
 };
 
 }  // namespace
@@ -643,7 +671,7 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
           break;
         if (!b.checked(
                 [&] {
-                  return b.line(backed_off(start, setting.approach_m), start, Phase::kApproach,
+                  return b.line(moved(start, c.in_dir, setting.approach_m), start, Phase::kApproach,
                                 "approach to " + what);
                 },
                 false, "approach to " + what))
@@ -662,7 +690,7 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
         const Iso3 here = plan.samples.back().T_base_tcp;
         if (!b.checked(
                 [&] {
-                  return b.line(here, backed_off(here, setting.approach_m), Phase::kDeparture,
+                  return b.line(here, moved(here, c.out_dir, setting.approach_m), Phase::kDeparture,
                                 "departure from " + what);
                 },
                 false, "departure from " + what))

@@ -149,7 +149,7 @@ double PartClearance::clearance(const mjData* d, std::string* geom) const {
 struct CollisionChecker::State {
   const MujocoWorld* world = nullptr;
   std::optional<PartClearance> part;
-  double part_margin = 0.0;
+  double part_margin = 0.0, weld_margin = 0.0;
   ModelPtr model;
   DataPtr data;
 };
@@ -167,9 +167,11 @@ CollisionChecker::CollisionChecker(const MujocoWorld& world, double margin_m)
   state_->data.reset(mj_makeData(m));
 }
 
-void CollisionChecker::add_part(const Mesh& part_mesh, const Iso3& T_base_part, double margin_m) {
+void CollisionChecker::add_part(const Mesh& part_mesh, const Iso3& T_base_part, double margin_m,
+                                double weld_margin_m) {
   state_->part.emplace(*state_->world, part_mesh, T_base_part, 2 * margin_m + 0.005);
   state_->part_margin = margin_m;
+  state_->weld_margin = weld_margin_m;
 }
 
 std::string CollisionChecker::operator()(const JointVector& q, bool welding) const {
@@ -192,7 +194,8 @@ std::string CollisionChecker::operator()(const JointVector& q, bool welding) con
   }
   if (state_->part) {
     std::string geom;
-    if (state_->part->clearance(d, &geom) < (welding ? 0.0 : state_->part_margin)) return geom + " with the part";
+    if (state_->part->clearance(d, &geom) < (welding ? state_->weld_margin : state_->part_margin))
+      return geom + (welding ? " with the part while welding" : " with the part");
   }
   return "";
 }

@@ -33,9 +33,10 @@ class CollisionChecker {
   explicit CollisionChecker(const MujocoWorld& world, double margin_m = 0.0);
 
   /// Also keep the robot `margin_m` away from the part's exact mesh at T_base_part (for planning: the pose
-  /// that was found; the margin covers its error) — while welding only out of it (the torch is meant to be
-  /// close to the joint).
-  void add_part(const Mesh& part_mesh, const Iso3& T_base_part, double margin_m = 0.0015);
+  /// that was found; the margins cover its error), and `weld_margin_m` while welding (the nozzle is meant to
+  /// be close to the joint, but not on the part).
+  void add_part(const Mesh& part_mesh, const Iso3& T_base_part, double margin_m = 0.0015,
+                double weld_margin_m = 0.0005);
 
   /// "" when the arm at q is clear, else "ROBOT_GEOM with OTHER_GEOM". Not thread-safe (one mjData); copies
   /// share it.
