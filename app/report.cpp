@@ -116,7 +116,17 @@ std::vector<Picture> render_pictures(const RunRecord& run, const std::string& di
         label_colour(i < run.cloud_labels.size() ? run.cloud_labels[i] : Label::kOther));
   }
   scan.ghost_mesh = mj_name2id(m, mjOBJ_MESH, "part_mesh");
-  if (run.pose) scan.ghost_pose = run.pose->T_base_part;
+  if (run.pose) {
+    // MuJoCo keeps a mesh in its inertia frame: the part geom's offset in its body puts it back.
+    const int part_geom = mj_name2id(m, mjOBJ_GEOM, "part");
+    Iso3 T_body_geom = Iso3::Identity();
+    if (part_geom >= 0) {
+      const mjtNum* p = m->geom_pos + 3 * part_geom;
+      const mjtNum* q = m->geom_quat + 4 * part_geom;
+      T_body_geom = make_transform(Vec3(p[0], p[1], p[2]), Quat(q[0], q[1], q[2], q[3]).toRotationMatrix());
+    }
+    scan.ghost_pose = run.pose->T_base_part * T_body_geom;
+  }
   if (!run.pose || !run.pose->found) scan.ghost_mesh = -1;
   scan.part_alpha = 0.0f;
   scan.hide_geom = robot_geoms;
@@ -131,10 +141,20 @@ std::vector<Picture> render_pictures(const RunRecord& run, const std::string& di
     Overlay path;
     path.hide_geom = robot_geoms;
     const auto& s = run.replay->samples;
-    for (size_t k = 1; k < s.size(); ++k)
-      if (s[k].arc && s[k - 1].arc) path.segments.emplace_back(s[k - 1].tcp, s[k].tcp);
-    path.segment_width_m = 0.0015;
-    save(renderer.render(d.get(), View{"", part_centre, 0.55, 200.0, -50.0}, path), "torch_path.png",
+    // Segments of about 2 mm (a capsule per 200 Hz sample would be thousands of shapes to draw).
+    size_t from = 0;
+    for (size_t k = 1; k < s.size(); ++k) {
+      if (!s[k].arc || !s[k - 1].arc) {
+        from = k;
+        continue;
+      }
+      if ((s[k].tcp - s[from].tcp).norm() >= 0.002 || k + 1 == s.size() || !s[k + 1].arc) {
+        path.segments.emplace_back(s[from].tcp, s[k].tcp);
+        from = k;
+      }
+    }
+    path.segment_width_m = 0.0025;
+    save(renderer.render(d.get(), View{"", part_centre, 0.38, 200.0, -45.0}, path), "torch_path.png",
          "The torch path on the part", "Yellow: the TCP of the replayed arm while the arc is on.");
     // The arm at moments of the weld.
     std::vector<size_t> arc;
@@ -294,12 +314,14 @@ double write_report(const RunRecord& run, const std::string& dir, bool renders) 
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<Picture> pictures, plots;
   std::string missing;
+  double render_s = 0.0;
   if (renders) {
     try {
       pictures = render_pictures(run, dir);
     } catch (const std::exception& e) {
       missing += std::string("Pictures could not be rendered: ") + e.what() + ". ";
     }
+    render_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     plots = plot_figures(run, dir);
     if (plots.empty() && run.plan && run.plan->samples.size() >= 3)
       missing += "Plots need gnuplot (scripts/setup). ";
@@ -307,6 +329,8 @@ double write_report(const RunRecord& run, const std::string& dir, bool renders) 
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   nlohmann::json j = report_json(run);
   j["stage_seconds"]["report"] = seconds;
+  j["stage_seconds"]["report_pictures"] = render_s;
+  j["stage_seconds"]["report_plots"] = seconds - render_s;
   std::ofstream(dir + "/report.json") << j.dump(1) << '\n';
 
   std::ostringstream h;
