@@ -33,6 +33,24 @@ int main(int argc, char** argv) {
   rc->add_option("--threads", run.threads, "ray-casting threads (default: all cores)");
   rc->add_flag("-q,--quiet", run.quiet, "no progress lines");
 
+  weldtwin::ReplayCommand replay;
+  uint64_t replay_seed = 0;
+  bool replay_no_renders = false;
+  CLI::App* rp = app.add_subcommand(
+      "replay",
+      "Replay a plan in the twin (servos, contacts, clearance, distance to the true seams) and write "
+      "the report; exit 0 passed, 3 failed");
+  rp->add_option("plan", replay.plan, "plan JSON (as weldtwin plan or run writes it)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  rp->add_option("cell", replay.cell, "cell file (default: scenes/cells/default.yaml)")
+      ->check(CLI::ExistingFile);
+  CLI::Option* replay_seed_opt =
+      rp->add_option("--seed", replay_seed, "the cell's layout drawn from this seed");
+  rp->add_option("--out", replay.out, "output directory (default: out/replay)");
+  rp->add_flag("--no-renders", replay_no_renders, "figures only: no OSMesa pictures or plots");
+  rp->add_flag("-q,--quiet", replay.quiet, "no progress lines");
+
   weldtwin::ScanCommand scan;
   uint64_t seed = 0;
   CLI::App* sc = app.add_subcommand("scan",
@@ -92,6 +110,11 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
+    if (rp->parsed()) {
+      if (*replay_seed_opt) replay.seed = replay_seed;
+      replay.renders = !replay_no_renders;
+      return weldtwin::run_replay(replay);
+    }
     if (rc->parsed()) {
       if (*run_seed_opt) run.seed = run_seed;
       run.renders = !no_renders;

@@ -90,6 +90,50 @@ nlohmann::json plan_to_json(const WeldPlan& plan, const PartSpec& part, const Ro
   return out;
 }
 
+WeldPlan read_plan(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw input_error(path, "cannot open the plan file");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw input_error(path, std::string("malformed JSON: ") + e.what());
+  }
+  if (!j.is_object() || !j.contains("samples") || !j["samples"].is_array() || j["samples"].empty())
+    throw input_error(path, "no samples (a plan as weldtwin plan writes it)");
+  WeldPlan plan;
+  double t_prev = -1.0;
+  size_t k = 0;
+  for (const auto& s : j["samples"]) {
+    const std::string at = "sample " + std::to_string(k++);
+    if (!s.is_object() || !s.contains("t") || !s.contains("q") || !s["t"].is_number() || !s["q"].is_array() ||
+        s["q"].size() != 6)
+      throw input_error(path, at + ": needs t and q[6]");
+    PlanSample p;
+    p.t_s = s["t"].get<double>();
+    for (int i = 0; i < 6; ++i) {
+      const auto& v = s["q"][static_cast<size_t>(i)];
+      if (!v.is_number() || !std::isfinite(v.get<double>()))
+        throw input_error(path, at + ": q has a non-number");
+      p.q[i] = v.get<double>();
+    }
+    if (!std::isfinite(p.t_s) || p.t_s <= t_prev) throw input_error(path, at + ": times must increase");
+    t_prev = p.t_s;
+    if (s.contains("tcp") && s["tcp"].is_array() && s["tcp"].size() == 7) {
+      const auto& c = s["tcp"];
+      p.T_base_tcp =
+          make_transform(Vec3(c[0].get<double>(), c[1].get<double>(), c[2].get<double>()),
+                         Quat(c[3].get<double>(), c[4].get<double>(), c[5].get<double>(), c[6].get<double>())
+                             .normalized()
+                             .toRotationMatrix());
+    }
+    p.seam = s.value("seam", -1);
+    p.arc = s.value("arc", false);
+    plan.samples.push_back(p);
+  }
+  return plan;
+}
+
 int run_plan(const PlanCommand& cmd) {
   const CellSpec cell = CellSpec::load(
       cmd.cell.empty() ? std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml" : cmd.cell);

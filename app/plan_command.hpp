@@ -27,6 +27,9 @@ Iso3 read_pose(const std::string& path);
 nlohmann::json plan_to_json(const WeldPlan& plan, const PartSpec& part, const RobotModel& robot,
                             const PlanSetting& setting);
 
+/// The samples of a plan JSON (t, q, tcp, seam, arc); throws InputError naming the file.
+WeldPlan read_plan(const std::string& path);
+
 /// Returns the exit code: 0 planned, 3 a seam cannot be welded (the plan file says why). Throws InputError.
 int run_plan(const PlanCommand& cmd);
 

@@ -20,4 +20,16 @@ struct RunCommand {
 /// Returns the exit code: 0 PASS, 3 FAIL (the report says why). Throws InputError for bad input.
 int run_job(const RunCommand& cmd);
 
+struct ReplayCommand {
+  std::string plan;  ///< plan JSON
+  std::string cell;  ///< "" = the default cell; its part at the cell's pose (or drawn from the seed)
+  std::optional<uint64_t> seed;
+  std::string out = "out/replay";
+  bool renders = true;
+  bool quiet = false;
+};
+
+/// Replays a plan in the cell and writes the report: 0 the replay passed, 3 it failed.
+int run_replay(const ReplayCommand& cmd);
+
 }  // namespace weldtwin

@@ -1,12 +1,12 @@
 #include "planning/weld_planner.hpp"
 
 #include <algorithm>
-#include <functional>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <map>
-#include <random>
 #include <optional>
+#include <random>
 #include <sstream>
 
 #include "planning/ik_aubo.hpp"
@@ -39,7 +39,8 @@ struct Choice {
   int branch = -1;
   double margin = -1.0;
   JointVector q_start = JointVector::Zero();  ///< at the approach's first pose
-  Vec3 in_dir = Vec3::Zero(), out_dir = Vec3::Zero();  ///< unit, from the weld's start (end) to the approach (departure) pose
+  Vec3 in_dir = Vec3::Zero(),
+       out_dir = Vec3::Zero();  ///< unit, from the weld's start (end) to the approach (departure) pose
 };
 
 Iso3 moved(const Iso3& T, const Vec3& direction, double distance) {
@@ -135,7 +136,8 @@ std::vector<JointVector> free_path(const JointVector& a, const JointVector& b, c
     const size_t j = static_cast<size_t>(u01(rng) * static_cast<double>(path.size()));
     const size_t lo = std::min(i, j), hi = std::max(i, j);
     if (hi >= path.size() || hi - lo < 2) continue;
-    if (edge_free(path[lo], path[hi])) path.erase(path.begin() + static_cast<long>(lo) + 1, path.begin() + static_cast<long>(hi));
+    if (edge_free(path[lo], path[hi]))
+      path.erase(path.begin() + static_cast<long>(lo) + 1, path.begin() + static_cast<long>(hi));
   }
   return path;
 }
@@ -179,7 +181,8 @@ class Builder {
       std::array<double, 8> worst;
       worst.fill(std::numeric_limits<double>::infinity());
       std::array<JointVector, 8> last, first;
-      std::array<std::vector<std::pair<JointVector, bool>>, 8> stations_q;  // for the collision test of a winner
+      std::array<std::vector<std::pair<JointVector, bool>>, 8>
+          stations_q;  // for the collision test of a winner
       // Stations along the stretch, plus its approach (k = -1) and departure (k = stations + 1) poses.
       for (int k = -1; k <= stations + 1; ++k) {
         const Iso3 pose = k < 0          ? backed_off(g.tcp(s0, roll), set_.approach_m)
@@ -194,7 +197,8 @@ class Builder {
             m = -1.0;
           worst[static_cast<size_t>(b)] = std::min(worst[static_cast<size_t>(b)], m);
           if (s.valid) last[static_cast<size_t>(b)] = s.q;
-          if (set_.collision && m >= 0 && k >= 0 && k <= stations) stations_q[static_cast<size_t>(b)].emplace_back(s.q, true);
+          if (set_.collision && m >= 0 && k >= 0 && k <= stations)
+            stations_q[static_cast<size_t>(b)].emplace_back(s.q, true);
           if (k < 0) first[static_cast<size_t>(b)] = s.q;
         }
         // Stop on this roll once no branch can still win.
@@ -244,7 +248,8 @@ class Builder {
   // A clear way to (or from) the weld pose `at` on branch `b`: back along the torch axis, or else straight
   // up; the direction and the configuration at its far end, or nothing when both collide or leave the
   // branch. Without a collision test, the torch axis.
-  std::optional<std::pair<Vec3, JointVector>> clear_way(const Iso3& at, int b, const JointVector& q_near) const {
+  std::optional<std::pair<Vec3, JointVector>> clear_way(const Iso3& at, int b,
+                                                        const JointVector& q_near) const {
     last_hit_.clear();
     for (const Vec3& dir : {Vec3(-at.linear().col(2)), Vec3(Vec3::UnitZ())}) {
       std::vector<std::pair<JointVector, bool>> qs;
@@ -521,8 +526,8 @@ class Builder {
   JointVector q_;
   double dt_;
   double t_ = 0.0;
-  double slow_ = 1.0;  ///< duration factor of the piece being tried (checked())
-  int branch_ = 0;     ///< IK branch of the seam being welded
+  double slow_ = 1.0;                 ///< duration factor of the piece being tried (checked())
+  int branch_ = 0;                    ///< IK branch of the seam being welded
   mutable std::string last_hit_;      ///< the latest collision found
   mutable std::string rejected_hit_;  ///< what ruled out the best candidate since main_collision()
   mutable double rejected_margin_ = -1.0;
@@ -600,12 +605,13 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
       }
       if (!c.ok) {
         const std::string hit = b.main_collision();
-        plan.problems.push_back(what +
-                                (seam.torch_roll_rad ? ": unreachable with its torch roll"
-                                                     : ": unreachable with any torch roll") +
-                                (hit.empty() ? " (out of reach, or closer than the set margins to the joint limits or to a"
-                                               " singularity)"
-                                             : " (where the arm reaches it, it collides: " + hit + ")"));
+        plan.problems.push_back(
+            what +
+            (seam.torch_roll_rad ? ": unreachable with its torch roll"
+                                 : ": unreachable with any torch roll") +
+            (hit.empty() ? " (out of reach, or closer than the set margins to the joint limits or to a"
+                           " singularity)"
+                         : " (where the arm reaches it, it collides: " + hit + ")"));
         break;
       }
       pieces.emplace_back(s0, s1);

@@ -145,5 +145,25 @@ TEST(Cli, ScanWritesLogCloudAndTruth) {
     EXPECT_NE(truth.find(key), std::string::npos) << key;
 }
 
+TEST(Cli, ReplayJudgesAPlanInTheCellItWasMadeForAndNotElsewhere) {
+  const auto dir = std::filesystem::temp_directory_path() / "weldtwin_cli_replay";
+  std::filesystem::remove_all(dir);
+  // The default job leaves its plan; replayed in the same cell it passes, in another layout of the cell
+  // (the part elsewhere, clamps elsewhere) it must fail, with the reason in the report.
+  ASSERT_EQ(weldtwin("run --no-renders -q --out " + (dir / "run").string()).code, 0);
+  const std::string plan = (dir / "run" / "plan.json").string();
+  EXPECT_EQ(weldtwin("replay " + plan + " --no-renders -q --out " + (dir / "same").string()).code, 0);
+  const CliRun other = weldtwin("replay " + plan + " " + test::repo("scenes/cells/default.yaml") +
+                                " --seed 3 --no-renders -q --out " + (dir / "other").string());
+  EXPECT_EQ(other.code, 3);
+  std::ifstream in(dir / "other" / "report.json");
+  const std::string report((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(report.find("\"verdict\": \"FAIL\""), std::string::npos);
+  // A plan that is not one.
+  expect_bad_input(weldtwin("replay " + temp_file("empty_plan.json", "{\"samples\": []}")), "no samples");
+  expect_bad_input(
+      weldtwin("replay " + temp_file("bad_plan.json", "{\"samples\": [{\"t\": 0, \"q\": [1, 2]}]}")), "q[6]");
+}
+
 }  // namespace
 }  // namespace weldtwin
