@@ -36,7 +36,7 @@ class CollisionChecker {
   /// that was found; the margins cover its error), and `weld_margin_m` while welding (the nozzle is meant to
   /// be close to the joint, but not on the part).
   void add_part(const Mesh& part_mesh, const Iso3& T_base_part, double margin_m = 0.0015,
-                double weld_margin_m = 0.0005);
+                double weld_margin_m = 0.00075);
 
   /// "" when the arm at q is clear, else "ROBOT_GEOM with OTHER_GEOM". Not thread-safe (one mjData); copies
   /// share it.
