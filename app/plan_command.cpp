@@ -135,8 +135,7 @@ WeldPlan read_plan(const std::string& path) {
 }
 
 int run_plan(const PlanCommand& cmd) {
-  const CellSpec cell = CellSpec::load(
-      cmd.cell.empty() ? std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml" : cmd.cell);
+  const CellSpec cell = CellSpec::load(cell_or_default(cmd.cell));
   const RobotModel robot = RobotModel::load(cell.robot_urdf);
   const PartSpec part = PartSpec::load(cmd.part);
   const Iso3 T_base_part = read_pose(cmd.pose);

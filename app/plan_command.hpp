@@ -20,6 +20,11 @@ struct PlanCommand {
   bool quiet = false;
 };
 
+/// The cell file given, or the default cell of the repository when none was.
+inline std::string cell_or_default(const std::string& cell) {
+  return cell.empty() ? std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml" : cell;
+}
+
 /// T_base_part from a pose JSON; throws InputError naming the file.
 Iso3 read_pose(const std::string& path);
 

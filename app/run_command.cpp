@@ -34,8 +34,7 @@ int run_job(const RunCommand& cmd) {
   };
 
   // The cell.
-  const CellSpec cell = CellSpec::load(
-      cmd.cell.empty() ? std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml" : cmd.cell);
+  const CellSpec cell = CellSpec::load(cell_or_default(cmd.cell));
   const PartSpec part = PartSpec::load(cell.part_spec);
   const RobotModel robot = RobotModel::load(cell.robot_urdf);
   const SweepProgram program = SweepProgram::load(cell.sweep_program, robot);
@@ -149,8 +148,7 @@ int run_job(const RunCommand& cmd) {
 }
 
 int run_replay(const ReplayCommand& cmd) {
-  const CellSpec cell = CellSpec::load(
-      cmd.cell.empty() ? std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml" : cmd.cell);
+  const CellSpec cell = CellSpec::load(cell_or_default(cmd.cell));
   const PartSpec part = PartSpec::load(cell.part_spec);
   const RobotModel robot = RobotModel::load(cell.robot_urdf);
   const Mesh mesh = load_mesh(part.mesh_path);
