@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
-"""The run report as a person sees it: `weldtwin run` on the default cell writes report.html; headless Chromium
-opens a copy of it with a probe script added; every picture must decode and not be blank (pixel spread), and
-neither the page nor its console may report an error. Usage: report_browser_test.py WELDTWIN_BINARY"""
+"""The run report as a person sees it: `weldtwin run` on the default cell writes report.html (twice: the pictures
+must be the same bytes); headless Chromium opens a copy of it with a probe script added; every picture must
+decode and not be blank (pixel spread), and neither the page nor its console may report an error.
+Usage: report_browser_test.py WELDTWIN_BINARY"""
 import json
 import os
 import re
@@ -54,6 +55,15 @@ def main():
         run = subprocess.run([weldtwin, "run", "--out", out, "-q"], capture_output=True, text=True)
         if run.returncode not in (0, 3) or not os.path.exists(os.path.join(out, "report.html")):
             print("weldtwin run failed:", run.returncode, run.stdout, run.stderr)
+            return 1
+        # The same cell again: every picture must come out byte for byte the same.
+        out2 = os.path.join(tmp, "run2")
+        subprocess.run([weldtwin, "run", "--out", out2, "-q"], capture_output=True, text=True)
+        pngs = sorted(f for f in os.listdir(out) if f.endswith(".png"))
+        differ = [f for f in pngs if not os.path.exists(os.path.join(out2, f)) or
+                  open(os.path.join(out, f), "rb").read() != open(os.path.join(out2, f), "rb").read()]
+        if len(pngs) < 8 or differ:
+            print("pictures not reproduced: %s (of %d)" % (differ, len(pngs)))
             return 1
         html = open(os.path.join(out, "report.html"), encoding="utf-8").read()
         # Self-contained: nothing is fetched from elsewhere.
