@@ -20,7 +20,7 @@ build: configure
 # The main job on the default cell: sweep -> localize -> plan -> replay in MuJoCo -> report.
 run: build
 	@mkdir -p $(OUT)
-	$(BUILD)/app/weldtwin run scenes/cells/default.yaml --out $(OUT)/run; \
+	@$(BUILD)/app/weldtwin run scenes/cells/default.yaml --out $(OUT)/run; \
 	  status=$$?; echo "make run: report in $(OUT)/run/report.html"; exit $$status
 
 test: build
