@@ -9,6 +9,7 @@
 #include <random>
 #include <sstream>
 
+#include "planning/free_path.hpp"
 #include "planning/ik_aubo.hpp"
 #include "planning/lspb.hpp"
 #include "planning/torch_frame.hpp"
@@ -53,93 +54,6 @@ Iso3 backed_off(const Iso3& T_tcp, double distance) {
   Iso3 T = T_tcp;
   T.translation() -= distance * T_tcp.linear().col(2);
   return T;
-}
-
-// A collision-free joint-space path from `a` to `b` (both free) by RRT-Connect: two trees grown towards
-// random configurations within the limits and towards each other, every edge checked at `step` rad; then
-// shortened by cutting corners that are free. Deterministic (fixed seed). Empty when none is found.
-std::vector<JointVector> free_path(const JointVector& a, const JointVector& b, const JointVector& lower,
-                                   const JointVector& upper,
-                                   const std::function<bool(const JointVector&)>& free, int max_nodes = 4000,
-                                   double step = 0.02, double reach = 0.4) {
-  auto edge_free = [&](const JointVector& p, const JointVector& q) {
-    const int n = std::max(1, static_cast<int>(std::ceil((q - p).cwiseAbs().maxCoeff() / step)));
-    for (int i = 1; i <= n; ++i)
-      if (!free(p + (q - p) * (static_cast<double>(i) / n))) return false;
-    return true;
-  };
-  if (edge_free(a, b)) return {a, b};
-  struct Tree {
-    std::vector<JointVector> q;
-    std::vector<int> parent;
-  };
-  Tree ta{{a}, {-1}}, tb{{b}, {-1}};
-  std::mt19937_64 rng(12345);
-  std::uniform_real_distribution<double> u01(0.0, 1.0);
-  auto nearest = [](const Tree& t, const JointVector& q) {
-    int best = 0;
-    double d = 1e300;
-    for (size_t i = 0; i < t.q.size(); ++i) {
-      const double di = (t.q[i] - q).squaredNorm();
-      if (di < d) {
-        d = di;
-        best = static_cast<int>(i);
-      }
-    }
-    return best;
-  };
-  // Extends `t` from its node nearest `target` by at most `reach`; returns the new node or -1.
-  auto extend = [&](Tree& t, const JointVector& target) {
-    const int n = nearest(t, target);
-    JointVector q = target;
-    const double d = (target - t.q[static_cast<size_t>(n)]).norm();
-    if (d > reach) q = t.q[static_cast<size_t>(n)] + (target - t.q[static_cast<size_t>(n)]) * (reach / d);
-    if (!edge_free(t.q[static_cast<size_t>(n)], q)) return -1;
-    t.q.push_back(q);
-    t.parent.push_back(n);
-    return static_cast<int>(t.q.size()) - 1;
-  };
-  auto branch = [](const Tree& t, int i) {
-    std::vector<JointVector> out;
-    for (; i >= 0; i = t.parent[static_cast<size_t>(i)]) out.push_back(t.q[static_cast<size_t>(i)]);
-    return out;  // from node i back to the root
-  };
-  std::vector<JointVector> path;
-  for (int it = 0; it < max_nodes && path.empty(); ++it) {
-    JointVector target;
-    for (int j = 0; j < 6; ++j) target[j] = lower[j] + (upper[j] - lower[j]) * u01(rng);
-    const int na = extend(ta, target);
-    if (na < 0) {
-      std::swap(ta, tb);
-      continue;
-    }
-    // Connect: grow the other tree towards the new node until it is reached or blocked.
-    int nb = -1;
-    for (int k = 0; k < 200; ++k) {
-      nb = extend(tb, ta.q[static_cast<size_t>(na)]);
-      if (nb < 0) break;
-      if ((tb.q[static_cast<size_t>(nb)] - ta.q[static_cast<size_t>(na)]).norm() < 1e-9) {
-        std::vector<JointVector> pa = branch(ta, na), pb = branch(tb, nb);
-        std::reverse(pa.begin(), pa.end());
-        pa.insert(pa.end(), pb.begin() + 1, pb.end());
-        path = pa;
-        break;
-      }
-    }
-    std::swap(ta, tb);
-  }
-  if (path.empty()) return path;
-  if ((path.front() - a).norm() > 1e-12) std::reverse(path.begin(), path.end());
-  // Shortcuts: join two random waypoints directly where that is free.
-  for (int it = 0; it < 200 && path.size() > 2; ++it) {
-    const size_t i = static_cast<size_t>(u01(rng) * static_cast<double>(path.size()));
-    const size_t j = static_cast<size_t>(u01(rng) * static_cast<double>(path.size()));
-    const size_t lo = std::min(i, j), hi = std::max(i, j);
-    if (hi >= path.size() || hi - lo < 2) continue;
-    if (edge_free(path[lo], path[hi]))
-      path.erase(path.begin() + static_cast<long>(lo) + 1, path.begin() + static_cast<long>(hi));
-  }
-  return path;
 }
 
 class Builder {
@@ -321,8 +235,8 @@ class Builder {
       }
     // Last: a path found in the free joint space, run waypoint to waypoint.
     const std::vector<JointVector> path =
-        free_path(q_, to, robot_.lower(), robot_.upper(),
-                  [&](const JointVector& q) { return set_.collision(q, false).empty(); });
+        free_joint_path(q_, to, robot_.lower(), robot_.upper(),
+                        [&](const JointVector& q) { return set_.collision(q, false).empty(); });
     if (!path.empty()) {
       for (size_t k = 1; k < path.size(); ++k) joint_move(path[k]);
       if ((q_ - to).cwiseAbs().maxCoeff() < 1e-9) return true;

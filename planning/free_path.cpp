@@ -1,0 +1,63 @@
+#include "planning/free_path.hpp"
+
+#include <ompl/base/spaces/RealVectorStateSpace.h>
+#include <ompl/geometric/SimpleSetup.h>
+#include <ompl/geometric/planners/rrt/RRTConnect.h>
+#include <ompl/util/Console.h>
+#include <ompl/util/RandomNumbers.h>
+
+#include <algorithm>
+#include <mutex>
+
+namespace weldtwin {
+
+std::vector<JointVector> free_joint_path(const JointVector& a, const JointVector& b, const JointVector& lower,
+                                         const JointVector& upper,
+                                         const std::function<bool(const JointVector&)>& is_free,
+                                         double resolution_rad, double max_seconds) {
+  namespace ob = ompl::base;
+  namespace og = ompl::geometric;
+  static std::once_flag once;
+  std::call_once(once, [] {
+    ompl::msg::setLogLevel(ompl::msg::LOG_WARN);
+    ompl::RNG::setSeed(20261122);  // before any sampler exists: the same questions, the same paths
+  });
+  const int n = static_cast<int>(a.size());
+  auto space = std::make_shared<ob::RealVectorStateSpace>(static_cast<unsigned>(n));
+  ob::RealVectorBounds bounds(static_cast<unsigned>(n));
+  for (int j = 0; j < n; ++j) {
+    bounds.setLow(static_cast<unsigned>(j), lower[j]);
+    bounds.setHigh(static_cast<unsigned>(j), upper[j]);
+  }
+  space->setBounds(bounds);
+  og::SimpleSetup setup(space);
+  auto to_q = [n](const ob::State* s) {
+    const auto* v = s->as<ob::RealVectorStateSpace::StateType>();
+    JointVector q;
+    for (int j = 0; j < n; ++j) q[j] = v->values[j];
+    return q;
+  };
+  setup.setStateValidityChecker([&](const ob::State* s) { return is_free(to_q(s)); });
+  // OMPL checks motions at a fraction of the space's extent: `resolution_rad` of joint travel.
+  setup.getSpaceInformation()->setStateValidityCheckingResolution(resolution_rad / space->getMaximumExtent());
+  ob::ScopedState<> start(space), goal(space);
+  for (int j = 0; j < n; ++j) {
+    start[static_cast<unsigned>(j)] = a[j];
+    goal[static_cast<unsigned>(j)] = b[j];
+  }
+  setup.setStartAndGoalStates(start, goal);
+  setup.setPlanner(std::make_shared<og::RRTConnect>(setup.getSpaceInformation()));
+  setup.setup();
+  const ob::PlannerTerminationCondition stop = ob::plannerOrTerminationCondition(
+      ob::timedPlannerTerminationCondition(max_seconds),
+      ob::exactSolnPlannerTerminationCondition(setup.getProblemDefinition()));
+  if (setup.solve(stop) != ob::PlannerStatus::EXACT_SOLUTION) return {};
+  setup.simplifySolution();
+  std::vector<JointVector> path;
+  for (const ob::State* s : setup.getSolutionPath().getStates()) path.push_back(to_q(s));
+  path.front() = a;  // exactly the asked ends
+  path.back() = b;
+  return path;
+}
+
+}  // namespace weldtwin

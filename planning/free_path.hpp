@@ -1,0 +1,19 @@
+// A collision-free joint-space path between two free configurations, by OMPL's RRT-Connect (seeded, so the
+// same question gets the same answer in a process) and OMPL's path simplification.
+#pragma once
+
+#include <functional>
+#include <vector>
+
+#include "core/robot_model.hpp"
+
+namespace weldtwin {
+
+/// Waypoints from `a` to `b` (both included) whose straight joint-space segments are free according to
+/// `is_free`, checked every `resolution_rad`; empty when none is found within `max_seconds`.
+std::vector<JointVector> free_joint_path(const JointVector& a, const JointVector& b, const JointVector& lower,
+                                         const JointVector& upper,
+                                         const std::function<bool(const JointVector&)>& is_free,
+                                         double resolution_rad = 0.02, double max_seconds = 5.0);
+
+}  // namespace weldtwin
