@@ -1,12 +1,10 @@
 #include "planning/weld_planner.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
-#include <functional>
 #include <limits>
-#include <map>
 #include <optional>
-#include <random>
 #include <sstream>
 
 #include "planning/free_path.hpp"

@@ -1,7 +1,6 @@
 #include "sim/replay.hpp"
 
 #include <algorithm>
-#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
