@@ -136,26 +136,32 @@ std::vector<Picture> render_pictures(const RunRecord& run, const std::string& di
        "pose "
        "found (the real part is hidden).");
 
-  // The torch path the arm really followed, drawn on the part.
-  if (run.replay && !run.replay->samples.empty()) {
+  // The planned torch path, drawn on the part (the real one, where the twin knows it stands).
+  if (run.plan && run.plan->samples.size() > 1) {
     Overlay path;
     path.hide_geom = robot_geoms;
-    const auto& s = run.replay->samples;
+    const auto& p = run.plan->samples;
     // Segments of about 2 mm (a capsule per 200 Hz sample would be thousands of shapes to draw).
     size_t from = 0;
-    for (size_t k = 1; k < s.size(); ++k) {
-      if (!s[k].arc || !s[k - 1].arc) {
+    for (size_t k = 1; k < p.size(); ++k) {
+      if (!p[k].arc || !p[k - 1].arc) {
         from = k;
         continue;
       }
-      if ((s[k].tcp - s[from].tcp).norm() >= 0.002 || k + 1 == s.size() || !s[k + 1].arc) {
-        path.segments.emplace_back(s[from].tcp, s[k].tcp);
+      const Vec3 a = p[from].T_base_tcp.translation(), b = p[k].T_base_tcp.translation();
+      if ((b - a).norm() >= 0.002 || k + 1 == p.size() || !p[k + 1].arc) {
+        path.segments.emplace_back(a, b);
         from = k;
       }
     }
     path.segment_width_m = 0.0025;
     save(renderer.render(d.get(), View{"", part_centre, 0.38, 200.0, -45.0}, path), "torch_path.png",
-         "The torch path on the part", "Yellow: the TCP of the replayed arm while the arc is on.");
+         "The planned torch path on the part",
+         "Yellow: the planned TCP while the arc is on, planned at the pose found, drawn on the part where it "
+         "really stands.");
+  }
+  if (run.replay && !run.replay->samples.empty()) {
+    const auto& s = run.replay->samples;
     // The arm at moments of the weld.
     std::vector<size_t> arc;
     for (size_t k = 0; k < s.size(); ++k)
