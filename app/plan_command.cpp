@@ -13,15 +13,23 @@
 namespace weldtwin {
 
 // T_base_part from a pose JSON (DESIGN.md: {"T_base_part": [[4x4 row-major]], ...}).
-Iso3 read_pose(const std::string& path) {
+namespace {
+
+// A JSON file, or InputError naming it ("cannot open the `what` file", "malformed JSON: ...").
+nlohmann::json read_json_file(const std::string& path, const std::string& what) {
   std::ifstream in(path);
-  if (!in) throw input_error(path, "cannot open the pose file");
-  nlohmann::json j;
+  if (!in) throw input_error(path, "cannot open the " + what + " file");
   try {
-    j = nlohmann::json::parse(in);
+    return nlohmann::json::parse(in);
   } catch (const nlohmann::json::exception& e) {
     throw input_error(path, std::string("malformed JSON: ") + e.what());
   }
+}
+
+}  // namespace
+
+Iso3 read_pose(const std::string& path) {
+  const nlohmann::json j = read_json_file(path, "pose");
   if (!j.contains("T_base_part")) throw input_error(path, "no field 'T_base_part'");
   const auto& m = j["T_base_part"];
   if (!m.is_array() || m.size() != 4) throw input_error(path, "T_base_part must be a 4x4 array");
@@ -91,14 +99,7 @@ nlohmann::json plan_to_json(const WeldPlan& plan, const PartSpec& part, const Ro
 }
 
 WeldPlan read_plan(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw input_error(path, "cannot open the plan file");
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    throw input_error(path, std::string("malformed JSON: ") + e.what());
-  }
+  const nlohmann::json j = read_json_file(path, "plan");
   if (!j.is_object() || !j.contains("samples") || !j["samples"].is_array() || j["samples"].empty())
     throw input_error(path, "no samples (a plan as weldtwin plan writes it)");
   WeldPlan plan;

@@ -144,6 +144,20 @@ class Builder {
     return best;
   }
 
+  // Where the trajectory stands, to take back a piece that did not work out.
+  struct Mark {
+    size_t samples = 0, problems = 0;
+    JointVector q = JointVector::Zero();
+    double t = 0.0;
+  };
+  Mark mark() const { return {plan_.samples.size(), plan_.problems.size(), q_, t_}; }
+  void rewind(const Mark& m) {
+    plan_.samples.resize(m.samples);
+    plan_.problems.resize(m.problems);
+    q_ = m.q;
+    t_ = m.t;
+  }
+
   // Whether any of the configurations (each with whether the arc is on) collides with the cell (never,
   // without a collision test). What was hit is counted for the message of an unreachable seam.
   bool collides(const std::vector<std::pair<JointVector, bool>>& qs) const {
@@ -204,15 +218,11 @@ class Builder {
   // torch axis), across in joint space (directly, or by way of home, the arm folded up clear of the table),
   // and into `to` along the same kind of line.
   bool transit(const JointVector& to, const std::string& what) {
-    const size_t n0 = plan_.samples.size();
-    const JointVector q0 = q_;
-    const double t0 = t_;
+    const Mark start = mark();
     joint_move(to);
-    std::string hit = collision_since(n0);
+    std::string hit = collision_since(start.samples);
     if (hit.empty()) return true;
-    plan_.samples.resize(n0);
-    q_ = q0;
-    t_ = t0;
+    rewind(start);
     const Iso3 here = ik_.fk(q_), there = ik_.fk(to);
     const double top = std::max(here.translation().z(), there.translation().z()) + set_.transit_lift_m;
     auto up = [&](const Iso3& T) {
@@ -226,10 +236,8 @@ class Builder {
         const Iso3 out = vertical ? up(here) : backed_off(here, set_.transit_lift_m);
         const Iso3 in = vertical ? up(there) : backed_off(there, set_.transit_lift_m);
         const bool legs = leg_out_across_in(here, out, via_home, in, there, to, what);
-        if (legs && collision_since(n0).empty()) return true;
-        plan_.samples.resize(n0);
-        q_ = q0;
-        t_ = t0;
+        if (legs && collision_since(start.samples).empty()) return true;
+        rewind(start);
       }
     // Last: a path found in the free joint space, run waypoint to waypoint.
     const std::vector<JointVector> path =
@@ -238,9 +246,7 @@ class Builder {
     if (!path.empty()) {
       for (size_t k = 1; k < path.size(); ++k) joint_move(path[k]);
       if ((q_ - to).cwiseAbs().maxCoeff() < 1e-9) return true;
-      plan_.samples.resize(n0);
-      q_ = q0;
-      t_ = t0;
+      rewind(start);
     }
     problem(what + ": collides with " + hit + " (straight, lifted, by way of home, or any way found in " +
             "joint space)");
@@ -292,9 +298,8 @@ class Builder {
   // the speed. Returns false, with the problem recorded, when no try works.
   template <typename Piece>
   bool checked(Piece piece, bool is_weld, const std::string& what) {
-    const size_t n0 = plan_.samples.size(), p0 = plan_.problems.size();
-    const JointVector q0 = q_;
-    const double t0 = t_;
+    const Mark start = mark();
+    const size_t n0 = start.samples, p0 = start.problems;
     std::vector<std::string> why;
     for (double scale : {1.0, 2.0, 4.0}) {
       slow_ = scale;
@@ -311,10 +316,7 @@ class Builder {
       } else {
         why.assign(plan_.problems.begin() + static_cast<long>(p0), plan_.problems.end());
       }
-      plan_.samples.resize(n0);
-      plan_.problems.resize(p0);
-      q_ = q0;
-      t_ = t0;
+      rewind(start);
       if (is_weld) break;
     }
     slow_ = 1.0;
