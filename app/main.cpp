@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <exception>
 
+#include "app/bench_command.hpp"
 #include "app/localize_command.hpp"
 #include "app/plan_command.hpp"
 #include "app/run_command.hpp"
@@ -101,6 +102,48 @@ int main(int argc, char** argv) {
   pc->add_option("--csv", plan.csv, "joint trajectory CSV to write (t,j1..j6)");
   pc->add_flag("-q,--quiet", plan.quiet, "no progress lines");
 
+  weldtwin::BenchCommand bench;
+  std::string shard = "0/1";
+  double mount_mm = 0.0, mount_deg = 0.0;
+  CLI::App* bc = app.add_subcommand(
+      "bench",
+      "Randomized-pose benchmark: N random cells (part, pose, yaw, 2-4 clamps, clutter, LiDAR noise), each "
+      "swept, localized by ours and the paper's method on the same scan, planned and replayed; one JSON line "
+      "per trial. Trials are seeded by (seed, index): shards run anywhere merge into exactly the lines of "
+      "one "
+      "run (see docs/bench.md)");
+  bc->add_option("--trials", bench.trials, "trials in the whole benchmark (all shards)")
+      ->capture_default_str();
+  bc->add_option("--seed", bench.seed, "benchmark seed")->capture_default_str();
+  bc->add_option("--jobs", bench.jobs, "trials at once, each in its own process (default: one per core)");
+  bc->add_option("--shard", shard,
+                 "K/N: run only the trials whose index i has i % N == K (K from 0), for splitting across "
+                 "machines")
+      ->capture_default_str();
+  bc->add_option("--out", bench.out, "results, JSON lines in index order")->required();
+  bc->add_option("--cell", bench.cells,
+                 "the cells whose parts are drawn (repeat; default: the three of scenes/cells)")
+      ->check(CLI::ExistingFile);
+  bc->add_flag("!--no-paper", bench.paper, "skip the paper's pipeline");
+  bc->add_flag("!--no-replay", bench.replay, "localization only: no plan, no replay");
+  bc->add_option("--timeout-s", bench.timeout_s, "a trial running longer is killed and recorded as failed")
+      ->capture_default_str();
+  bc->add_option("--mount-error-mm", mount_mm, "LiDAR mount error drawn per trial: sigma per axis [mm]");
+  bc->add_option("--mount-error-deg", mount_deg, "LiDAR mount error drawn per trial: sigma per axis [deg]");
+  bc->add_option("--encoder-noise-rad", bench.encoder_noise_rad, "joint encoder noise sigma [rad]");
+  bc->add_option("--fault", bench.fault, "for tests: INDEX:crash|hang|throw")->group("");
+  bc->add_flag("-q,--quiet", bench.quiet, "no progress output");
+
+  weldtwin::BenchReportCommand bench_report;
+  CLI::App* br = app.add_subcommand(
+      "bench-report",
+      "Merge benchmark shards and write DIR/results.jsonl, DIR/summary.json (success rates with 95 % "
+      "intervals, error percentiles per part, time per stage, failure causes) and DIR/report.html (plots)");
+  br->add_option("results", bench_report.inputs, "JSON-lines files of one benchmark (its shards)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  br->add_option("--out", bench_report.out, "output directory (default: out/bench)");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -110,6 +153,20 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
+    if (bc->parsed()) {
+      const size_t slash = shard.find('/');
+      try {
+        if (slash == std::string::npos) throw std::invalid_argument(shard);
+        bench.shard = std::stoi(shard.substr(0, slash));
+        bench.shards = std::stoi(shard.substr(slash + 1));
+      } catch (const std::exception&) {
+        throw weldtwin::InputError("--shard: '" + shard + "' is not K/N");
+      }
+      bench.mount_error_m = 1e-3 * mount_mm;
+      bench.mount_error_rad = weldtwin::deg2rad(mount_deg);
+      return weldtwin::run_bench(bench);
+    }
+    if (br->parsed()) return weldtwin::run_bench_report(bench_report);
     if (rp->parsed()) {
       if (*replay_seed_opt) replay.seed = replay_seed;
       replay.renders = !replay_no_renders;

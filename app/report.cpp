@@ -10,53 +10,14 @@
 #include <iterator>
 #include <sstream>
 
+#include "app/html_page.hpp"
 #include "sim/renderer.hpp"
 
 namespace weldtwin {
 namespace {
 
-std::string base64(const std::vector<uint8_t>& in) {
-  static const char* t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  out.reserve((in.size() + 2) / 3 * 4);
-  for (size_t i = 0; i < in.size(); i += 3) {
-    const uint32_t n = (static_cast<uint32_t>(in[i]) << 16) | (i + 1 < in.size() ? in[i + 1] << 8 : 0) |
-                       (i + 2 < in.size() ? in[i + 2] : 0);
-    out += t[(n >> 18) & 63];
-    out += t[(n >> 12) & 63];
-    out += i + 1 < in.size() ? t[(n >> 6) & 63] : '=';
-    out += i + 2 < in.size() ? t[n & 63] : '=';
-  }
-  return out;
-}
-
-std::vector<uint8_t> read_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::vector<uint8_t>(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
-
-std::string html_escape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    if (c == '<')
-      out += "&lt;";
-    else if (c == '>')
-      out += "&gt;";
-    else if (c == '&')
-      out += "&amp;";
-    else if (c == '"')
-      out += "&quot;";
-    else
-      out += c;
-  }
-  return out;
-}
-
-std::string num(double v, int digits = 3) {
-  char b[64];
-  std::snprintf(b, sizeof b, "%.*f", digits, v);
-  return b;
-}
+using html::num;
+const auto& html_escape = html::escape;
 
 nlohmann::json matrix(const Iso3& T) {
   nlohmann::json rows = nlohmann::json::array();
@@ -239,10 +200,7 @@ std::vector<Picture> plot_figures(const RunRecord& run, const std::string& dir) 
        << "/plot_seams.dat' using 1:3 with points pt 7 ps 0.3 title 'torch to true seam', 1.0 with lines "
        << "dt 2 lc rgb 'red' title '1 mm bar'\n";
   }
-  const std::string script = dir + "/plots.gp";
-  std::ofstream(script) << gp.str();
-  const std::string call = "gnuplot '" + script + "' 2>'" + dir + "/plots.log'";
-  if (std::system(call.c_str()) != 0) return out;  // the report says the plots are missing
+  if (!html::gnuplot(dir, "plots.gp", gp.str())) return out;  // the report says the plots are missing
   out.push_back({"plot_joint_positions.png", "Joint positions", "Planned, against the +-175 deg limits."});
   out.push_back({"plot_joint_velocities.png", "Joint velocities", "Planned, against the limits."});
   out.push_back({"plot_joint_accelerations.png", "Joint accelerations", "Planned, against the limits."});
@@ -340,18 +298,7 @@ double write_report(const RunRecord& run, const std::string& dir, bool renders) 
   std::ofstream(dir + "/report.json") << j.dump(1) << '\n';
 
   std::ostringstream h;
-  h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>weldtwin run: "
-    << html_escape(run.part->name) << "</title>\n<style>\n"
-    << "body{font-family:'DejaVu Sans',sans-serif;margin:2em auto;max-width:1100px;color:#222}\n"
-    << ".verdict{font-size:1.6em;padding:.5em 1em;border-radius:6px;color:#fff}\n"
-    << ".PASS{background:#2e7d32}.FAIL{background:#c62828}\n"
-    << "table{border-collapse:collapse;margin:.5em 0 1.5em}td,th{border:1px solid #ccc;padding:.25em "
-       ".7em;text-align:left}\n"
-    << "th{background:#f3f3f3}.bad{color:#c62828;font-weight:bold}\n"
-    << "figure{display:inline-block;margin:.5em;vertical-align:top}figure img{max-width:520px;border:1px "
-       "solid #ddd}\n"
-    << ".plots figure img{max-width:1000px}figcaption{font-size:.85em;color:#555;max-width:520px}\n"
-    << "</style></head><body>\n";
+  h << html::page_head("weldtwin run: " + run.part->name);
   h << "<h1>weldtwin run — " << html_escape(run.part->name) << " in cell '" << html_escape(run.cell->name)
     << "'" << (run.layout->seed ? ", seed " + std::to_string(*run.layout->seed) : std::string()) << "</h1>\n";
   h << "<div class=\"verdict " << (run.passed ? "PASS" : "FAIL") << "\">" << (run.passed ? "PASS" : "FAIL");
@@ -417,10 +364,7 @@ double write_report(const RunRecord& run, const std::string& dir, bool renders) 
   h << "</table>\n";
   if (!missing.empty()) h << "<p class=\"bad\">" << html_escape(missing) << "</p>\n";
   auto figures = [&](const std::vector<Picture>& list) {
-    for (const Picture& p : list)
-      h << "<figure><img alt=\"" << html_escape(p.title) << "\" src=\"data:image/png;base64,"
-        << base64(read_bytes(dir + "/" + p.file)) << "\"><figcaption><b>" << html_escape(p.title) << ".</b> "
-        << html_escape(p.caption) << "</figcaption></figure>\n";
+    for (const Picture& p : list) h << html::figure(dir, p.file, p.title, p.caption);
   };
   if (!pictures.empty()) {
     h << "<h2>The twin</h2>\n";

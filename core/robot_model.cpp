@@ -180,6 +180,13 @@ Iso3 RobotModel::forward_kinematics(const JointVector& q, int link) const {
   return T;
 }
 
+RobotModel RobotModel::with_mount_offset(const std::string& link_name, const Iso3& delta) const {
+  RobotModel copy = *this;
+  RobotLink& l = copy.links_[static_cast<size_t>(require_link(link_name))];
+  l.T_parent_joint = l.T_parent_joint * delta;
+  return copy;
+}
+
 bool RobotModel::within_limits(const JointVector& q) const {
   return ((q - lower_).array() >= 0.0).all() && ((upper_ - q).array() >= 0.0).all();
 }

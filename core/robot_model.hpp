@@ -72,6 +72,11 @@ class RobotModel {
   JointVector max_acceleration() const { return max_acceleration_; }
   bool within_limits(const JointVector& q) const;
 
+  /// A copy whose link `link_name` is mounted on its parent by `T_parent_joint * delta` instead: a mount
+  /// error (a LiDAR bracket off by a little), or a calibrated mount. Throws std::out_of_range for an unknown
+  /// link.
+  RobotModel with_mount_offset(const std::string& link_name, const Iso3& delta) const;
+
  private:
   std::string name_;
   std::vector<RobotLink> links_;

@@ -73,19 +73,26 @@ std::string fmt(const char* f, double a, double b = 0.0) {
 double distance_to_seam(const PartSpec& part, int seam, const Iso3& T_base_part, const Vec3& p) {
   const Seam& s = part.seams.at(static_cast<size_t>(seam));
   const Vec3 q = T_base_part.inverse() * p;
-  const int n =
-      s.kind == Seam::Kind::kLine ? 1 : std::max(8, static_cast<int>(std::ceil(s.length_m() / 2e-4)));
-  double best = std::numeric_limits<double>::infinity();
-  Vec3 a = s.point_at(0.0);
-  for (int i = 1; i <= n; ++i) {
-    const Vec3 b = s.point_at(static_cast<double>(i) / n);
-    const Vec3 ab = b - a;
+  if (s.kind == Seam::Kind::kLine) {
+    const Vec3 ab = s.end - s.start;
     const double len2 = ab.squaredNorm();
-    const double u = len2 > 0 ? std::clamp((q - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
-    best = std::min(best, (a + u * ab - q).norm());
-    a = b;
+    const double u = len2 > 0 ? std::clamp((q - s.start).dot(ab) / len2, 0.0, 1.0) : 0.0;
+    return (s.start + u * ab - q).norm();
   }
-  return best;
+  // An arc: the nearest point is on the circle in the direction of q (about the axis) when that direction
+  // lies within the sweep, else an end.
+  const Vec3 axis = s.axis.normalized(), r0 = s.start - s.center;
+  const Vec3 v = q - s.center;
+  const double h = v.dot(axis);
+  const Vec3 radial = v - h * axis;
+  const double ends = std::min((q - s.start).norm(), (q - s.point_at(1.0)).norm());
+  if (radial.norm() < 1e-12) return std::min(ends, std::hypot(h, s.radius_m));  // on the axis: all alike
+  const double sign = s.sweep_rad >= 0 ? 1.0 : -1.0;
+  double angle =
+      sign * std::atan2(axis.dot(r0.cross(radial)), r0.dot(radial));  // from the start, in sweep sense
+  if (angle < 0) angle += 2 * kPi;
+  if (angle <= std::abs(s.sweep_rad)) return std::min(ends, std::hypot(h, radial.norm() - s.radius_m));
+  return ends;
 }
 
 ReplayResult replay_plan(const MujocoWorld& world, const RobotModel& robot, const WeldPlan& plan,
@@ -206,7 +213,9 @@ ReplayResult replay_plan(const MujocoWorld& world, const RobotModel& robot, cons
       r.clearance_m = clearance.clearance(dk.get(), &r.clearance_geom);
     }
   };
-  const unsigned threads = std::max(1u, std::min(4u, std::thread::hardware_concurrency()));
+  const unsigned threads = setting.threads > 0
+                               ? static_cast<unsigned>(setting.threads)
+                               : std::max(1u, std::min(4u, std::thread::hardware_concurrency()));
   std::vector<std::thread> pool;
   for (unsigned i = 1; i < threads; ++i) pool.emplace_back(clearance_worker);
   clearance_worker();

@@ -25,6 +25,7 @@ struct ReplaySetting {
       0.00025;  ///< robot surfaces closer to the part than this touch it (inside: < 0): fail
   double clearance_range_m = 0.05;  ///< clearances beyond this are not resolved (reported as this)
   double max_tracking_m = 5e-4;     ///< arc-on TCP tracking error allowed
+  int threads = 0;                  ///< clearance checks side by side (0: up to 4 cores)
 };
 
 /// A pair of geoms in contact (penetration or touch), first seen at t_s.

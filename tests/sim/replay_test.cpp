@@ -26,6 +26,43 @@ TEST(Replay, DistanceToSeamIsExactForALineAndAnArc) {
   }
 }
 
+// A part arc (120 deg, clockwise, about a tilted axis) and a line: the closed form against the distance to a
+// dense polyline of the seam, at random points near and far, beyond the arc's ends and on its axis.
+TEST(Replay, DistanceToSeamMatchesADensePolylineEverywhere) {
+  PartSpec part;
+  Seam arc;
+  arc.kind = Seam::Kind::kArc;
+  arc.center = Vec3(0.01, -0.02, 0.03);
+  arc.axis = Vec3(0.2, -0.1, 1.0).normalized();
+  const Vec3 radial = arc.axis.cross(Vec3::UnitX()).normalized();
+  arc.radius_m = 0.04;
+  arc.start = arc.center + arc.radius_m * radial;
+  arc.sweep_rad = -deg2rad(120.0);
+  Seam line;
+  line.start = Vec3(-0.05, 0.0, 0.0);
+  line.end = Vec3(0.05, 0.02, 0.01);
+  part.seams = {arc, line};
+  const Iso3 T = planar_pose(0.4, 0.1, 0.0, 0.7);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-0.08, 0.08);
+  for (int s = 0; s < 2; ++s) {
+    const Seam& seam = part.seams[static_cast<size_t>(s)];
+    std::vector<Vec3> points;
+    for (int i = 0; i <= 20000; ++i) points.push_back(seam.point_at(i / 20000.0));
+    for (int k = 0; k < 300; ++k) {
+      Vec3 q(u(rng), u(rng), u(rng));
+      if (k == 0) q = arc.center + 0.02 * arc.axis;  // on the axis
+      double dense = 1e9;
+      for (size_t i = 1; i < points.size(); ++i) {
+        const Vec3 ab = points[i] - points[i - 1];
+        const double f = std::clamp((q - points[i - 1]).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+        dense = std::min(dense, (points[i - 1] + f * ab - q).norm());
+      }
+      EXPECT_NEAR(distance_to_seam(part, s, T, T * q), dense, 1e-6) << "seam " << s << " point " << k;
+    }
+  }
+}
+
 TEST(Replay, APlanAtTheTruePoseLandsOnTheSeamsWithoutContacts) {
   const test::Cell cell;
   const Mesh mesh = load_mesh(cell.part.mesh_path);

@@ -1,0 +1,470 @@
+#include "app/bench_command.hpp"
+
+#include <poll.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <thread>
+
+#include "app/plan_command.hpp"
+#include "core/cell_spec.hpp"
+#include "core/error.hpp"
+#include "perception/localizer.hpp"
+#include "perception/paper_localizer.hpp"
+#include "perception/pose_error.hpp"
+#include "perception/scan_assembly.hpp"
+#include "planning/weld_planner.hpp"
+#include "sim/cell_layout.hpp"
+#include "sim/collision_check.hpp"
+#include "sim/replay.hpp"
+#include "sim/sweep_sim.hpp"
+
+namespace weldtwin {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using nlohmann::json;
+
+// One part's cell, loaded once by the parent (children inherit it).
+struct BenchCell {
+  CellSpec cell;
+  PartSpec part;
+  RobotModel robot;
+  SweepProgram program;
+  Mesh mesh;
+  std::vector<Vec3> seam_points;  ///< part frame, 1 mm apart
+  int symmetry = 1;
+
+  explicit BenchCell(const std::string& file)
+      : cell(CellSpec::load(file)),
+        part(PartSpec::load(cell.part_spec)),
+        robot(RobotModel::load(cell.robot_urdf)),
+        program(SweepProgram::load(cell.sweep_program, robot)),
+        mesh(load_mesh(part.mesh_path)),
+        seam_points(part.seam_points(0.001)),
+        symmetry(z_symmetry_order(mesh)) {}
+};
+
+// Everything a trial draws, from (seed, index) alone.
+struct Draw {
+  uint64_t index = 0, trial_seed = 0;
+  size_t cell = 0;
+  uint64_t layout_seed = 0, lidar_seed = 0, encoder_seed = 0;
+  CellLayout layout;
+  Vec3 mount_xyz_m = Vec3::Zero(), mount_rpy_rad = Vec3::Zero();
+};
+
+uint64_t splitmix64(uint64_t x) {
+  x += 0x9E3779B97F4A7C15ull;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+  return x ^ (x >> 31);
+}
+
+// Numbers in the lines: rounded, so that the files are short and read well.
+double rounded(double v, double unit) {
+  const double per = std::round(1.0 / unit);  // a power of ten: the quotient is the nearest double
+  return std::round(v * per) / per;
+}
+
+// Fills `d` as far as it gets (a layout that cannot be drawn throws, with the rest of the draw known).
+void draw_trial(const BenchCommand& cmd, const std::vector<BenchCell>& cells, uint64_t index, Draw& d) {
+  d.index = index;
+  d.trial_seed = splitmix64(splitmix64(cmd.seed) ^ index);
+  std::mt19937_64 rng(d.trial_seed);
+  d.cell = static_cast<size_t>(rng() % cells.size());
+  d.layout_seed = rng() >> 1;
+  d.lidar_seed = rng() >> 1;
+  d.encoder_seed = rng() >> 1;
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (int k = 0; k < 3; ++k) d.mount_xyz_m[k] = cmd.mount_error_m * normal(rng);
+  for (int k = 0; k < 3; ++k) d.mount_rpy_rad[k] = cmd.mount_error_rad * normal(rng);
+  const BenchCell& c = cells[d.cell];
+  d.layout = make_layout(c.cell, c.part, d.layout_seed);
+}
+
+json draw_json(const Draw& d, const std::vector<BenchCell>& cells, const BenchCommand& cmd) {
+  const BenchCell& c = cells[d.cell];
+  const Iso3& T = d.layout.T_base_part;
+  json j;
+  j["cell"] = c.cell.name;
+  j["part"] = c.part.name;
+  j["x_m"] = rounded(T.translation().x(), 1e-6);
+  j["y_m"] = rounded(T.translation().y(), 1e-6);
+  double yaw = rad2deg(std::atan2(T.linear()(1, 0), T.linear()(0, 0)));
+  if (yaw < 0) yaw += 360.0;
+  j["yaw_deg"] = rounded(yaw, 1e-4);
+  j["clamps"] = d.layout.clamps.size();
+  j["clutter"] = d.layout.clutter.size();
+  j["layout_seed"] = d.layout_seed;
+  j["lidar_seed"] = d.lidar_seed;
+  if (cmd.mount_error_m > 0 || cmd.mount_error_rad > 0) {
+    j["mount_error_mm"] = {rounded(1e3 * d.mount_xyz_m.x(), 1e-4), rounded(1e3 * d.mount_xyz_m.y(), 1e-4),
+                           rounded(1e3 * d.mount_xyz_m.z(), 1e-4)};
+    j["mount_error_deg"] = {rounded(rad2deg(d.mount_rpy_rad.x()), 1e-5),
+                            rounded(rad2deg(d.mount_rpy_rad.y()), 1e-5),
+                            rounded(rad2deg(d.mount_rpy_rad.z()), 1e-5)};
+  }
+  if (cmd.encoder_noise_rad > 0) j["encoder_noise_rad"] = cmd.encoder_noise_rad;
+  return j;
+}
+
+json pose_json(const PoseEstimate& p, const PoseError& e) {
+  json j;
+  j["found"] = p.found;
+  if (!p.found) j["reason"] = p.reason;
+  j["seam_max_mm"] = rounded(1e3 * e.seam_max_m, 1e-4);
+  j["seam_mean_mm"] = rounded(1e3 * e.seam_mean_m, 1e-4);
+  j["rotation_deg"] = rounded(rad2deg(e.rotation_rad), 1e-5);
+  j["fitness"] = rounded(p.fitness, 1e-4);
+  j["success"] = p.found && e.seam_max_m <= 1e-3 && e.rotation_rad <= deg2rad(0.5);
+  return j;
+}
+
+// The kind of a failure, for counting: the first word of the cause, roughly.
+std::string cause_kind(const std::string& cause) {
+  for (const char* k : {"crash", "timeout", "error", "part not found", "plan", "replay"})
+    if (cause.rfind(k, 0) == 0) return k;
+  if (cause.rfind("localization", 0) == 0) return "localization";
+  return "other";
+}
+
+void set_verdict(json& j, const std::vector<std::string>& reasons) {
+  j["verdict"] = reasons.empty() ? "pass" : "fail";
+  if (!reasons.empty()) {
+    j["cause"] = reasons.front();
+    j["cause_kind"] = cause_kind(reasons.front());
+  }
+}
+
+// One trial, start to end, in this process. Timings go under "seconds" (the only part that differs between
+// runs of the same seed).
+json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d) {
+  json j;
+  j["index"] = d.index;
+  j["seed"] = cmd.seed;
+  json seconds;
+  auto t = Clock::now();
+  auto lap = [&](const char* stage) {
+    const auto now = Clock::now();
+    seconds[stage] = rounded(std::chrono::duration<double>(now - t).count(), 1e-4);
+    t = now;
+  };
+  const auto t0 = t;
+
+  // The cell as it really is: with the mount error the sweep sees through; the nominal robot assembles it.
+  const std::string lidar_link = SweepOptions().lidar_link;
+  const bool mount_error = !d.mount_xyz_m.isZero() || !d.mount_rpy_rad.isZero();
+  Iso3 delta = Iso3::Identity();
+  delta.translate(d.mount_xyz_m);
+  delta.rotate(Eigen::AngleAxisd(d.mount_rpy_rad.z(), Vec3::UnitZ()) *
+               Eigen::AngleAxisd(d.mount_rpy_rad.y(), Vec3::UnitY()) *
+               Eigen::AngleAxisd(d.mount_rpy_rad.x(), Vec3::UnitX()));
+  const RobotModel real_robot = mount_error ? c.robot.with_mount_offset(lidar_link, delta) : c.robot;
+  const MujocoWorld world(c.cell, c.part, real_robot, d.layout);
+  LidarSetting lidar;
+  lidar.apply(c.cell.lidar_overrides, c.cell.source);
+  lidar.seed = d.lidar_seed;
+  SweepOptions options;
+  options.threads = 1;  // trials run side by side instead
+  SweepResult sweep = simulate_sweep(world, real_robot, c.program, lidar, options);
+  if (cmd.encoder_noise_rad > 0) {
+    std::mt19937_64 rng(d.encoder_seed);
+    std::normal_distribution<double> noise(0.0, cmd.encoder_noise_rad);
+    for (JointState& s : sweep.log.joints)
+      for (int k = 0; k < s.q.size(); ++k) s.q[k] += noise(rng);
+  }
+  const AssembledCloud cloud = assemble_scan(sweep.log, c.robot);
+  j["scan_points"] = cloud.points_base.size();
+  lap("sweep");
+
+  LocalizeSetting setting;
+  setting.threads = 1;
+  const PoseEstimate ours = localize(cloud.points_base, c.mesh, setting, c.seam_points);
+  const PoseError ours_error = pose_error(c.part, ours.T_base_part, d.layout.T_base_part, c.symmetry);
+  j["ours"] = pose_json(ours, ours_error);
+  lap("ours");
+  if (cmd.paper) {
+    const PoseEstimate paper = localize_paper(cloud.points_base, c.mesh);
+    j["paper"] = pose_json(paper, pose_error(c.part, paper.T_base_part, d.layout.T_base_part, c.symmetry));
+    lap("paper");
+  }
+
+  std::vector<std::string> reasons;
+  if (!ours.found) reasons.push_back("part not found: " + ours.reason);
+  if (ours.found && ours_error.seam_max_m > 1e-3)
+    reasons.push_back("localization: seam " + std::to_string(1e3 * ours_error.seam_max_m).substr(0, 5) +
+                      " mm off the truth, and the part was accepted");
+  bool seams_under_1mm = ours.found && ours_error.seam_max_m <= 1e-3;
+  if (cmd.replay && ours.found) {
+    PlanSetting plan_setting;
+    CollisionChecker checker(world);
+    checker.add_part(c.mesh, ours.T_base_part);
+    plan_setting.collision = checker;
+    const WeldPlan plan =
+        plan_welds(c.part, ours.T_base_part, c.robot, plan_setting);  // as the controller knows it
+    json p;
+    p["ok"] = plan.ok();
+    if (!plan.ok()) p["problem"] = plan.problems.front();
+    p["seams"] = plan.seams.size();
+    p["duration_s"] = rounded(plan.duration_s(), 1e-4);
+    j["plan"] = p;
+    for (const std::string& s : plan.problems) reasons.push_back("plan: " + s);
+    lap("plan");
+    if (plan.ok() && !plan.samples.empty()) {
+      ReplaySetting replay_setting;
+      replay_setting.threads = 1;
+      const ReplayResult r =
+          replay_plan(world, real_robot, plan, c.part, c.mesh, d.layout.T_base_part, replay_setting);
+      json rj;
+      rj["passed"] = r.passed();
+      rj["max_seam_error_mm"] = rounded(1e3 * r.max_seam_error_m, 1e-4);
+      rj["contacts"] = r.contacts.size();
+      rj["min_clearance_mm"] = rounded(1e3 * r.min_clearance_m, 1e-3);
+      if (!r.passed()) rj["failure"] = r.failures.front();
+      j["replay"] = rj;
+      for (const std::string& f : r.failures) reasons.push_back("replay: " + f);
+      seams_under_1mm = seams_under_1mm && r.max_seam_error_m <= 1e-3;
+      lap("replay");
+    }
+  }
+  j["seams_under_1mm"] = seams_under_1mm;
+  set_verdict(j, reasons);
+  seconds["total"] = rounded(std::chrono::duration<double>(Clock::now() - t0).count(), 1e-4);
+  j["seconds"] = seconds;
+  return j;
+}
+
+// The line of a trial whose child did not give one.
+json failed_trial(const BenchCommand& cmd, const std::vector<BenchCell>& cells, const Draw& d,
+                  const std::string& cause, double seconds) {
+  json j;
+  j["index"] = d.index;
+  j["seed"] = cmd.seed;
+  j["draw"] = draw_json(d, cells, cmd);
+  j["seams_under_1mm"] = false;
+  set_verdict(j, {cause});
+  j["seconds"] = {{"total", rounded(seconds, 1e-4)}};
+  return j;
+}
+
+void inject_fault(const std::string& fault, uint64_t index) {
+  const size_t colon = fault.find(':');
+  if (fault.empty() || colon == std::string::npos || std::stoull(fault.substr(0, colon)) != index) return;
+  const std::string what = fault.substr(colon + 1);
+  if (what == "crash") std::raise(SIGSEGV);
+  if (what == "hang")
+    for (;;) std::this_thread::sleep_for(std::chrono::seconds(1));
+  if (what == "throw") throw std::runtime_error("fault injected for a test");
+}
+
+std::string duration_text(double s) {
+  char b[32];
+  if (s >= 3600)
+    std::snprintf(b, sizeof b, "%dh%02dm", static_cast<int>(s / 3600), static_cast<int>(s / 60) % 60);
+  else
+    std::snprintf(b, sizeof b, "%dm%02ds", static_cast<int>(s / 60), static_cast<int>(s) % 60);
+  return b;
+}
+
+struct Child {
+  pid_t pid = -1;
+  int fd = -1;
+  size_t slot = 0;  ///< position in this shard's list of trials
+  std::string text;
+  Clock::time_point start;
+};
+
+}  // namespace
+
+int run_bench(const BenchCommand& cmd_in) {
+  BenchCommand cmd = cmd_in;
+  if (cmd.trials < 0) throw InputError("--trials must not be negative");
+  if (cmd.shards < 1 || cmd.shard < 0 || cmd.shard >= cmd.shards)
+    throw InputError("--shard K/N needs 0 <= K < N (got " + std::to_string(cmd.shard) + "/" +
+                     std::to_string(cmd.shards) + ")");
+  if (cmd.out.empty()) throw InputError("--out: the results file (JSON lines) is needed");
+  if (cmd.cells.empty())
+    cmd.cells = {"scenes/cells/default.yaml", "scenes/cells/round_on_plate.yaml",
+                 "scenes/cells/tube_tee.yaml"};
+  if (cmd.jobs <= 0) cmd.jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  std::vector<BenchCell> cells;
+  for (const std::string& f : cmd.cells) cells.emplace_back(f);
+
+  std::vector<uint64_t> indices;
+  for (int i = cmd.shard; i < cmd.trials; i += cmd.shards) indices.push_back(static_cast<uint64_t>(i));
+  const std::filesystem::path out_path(cmd.out);
+  if (out_path.has_parent_path()) std::filesystem::create_directories(out_path.parent_path());
+  std::ofstream out(cmd.out, std::ios::trunc);
+  if (!out) throw InputError(cmd.out + ": cannot be written");
+
+  const bool tty = isatty(STDERR_FILENO) && !cmd.quiet;
+  if (!cmd.quiet)
+    std::fprintf(stderr,
+                 "bench: %zu trials (shard %d/%d of %d, seed %llu), %d at once, parts: %zu cells -> %s\n",
+                 indices.size(), cmd.shard, cmd.shards, cmd.trials, static_cast<unsigned long long>(cmd.seed),
+                 cmd.jobs, cells.size(), cmd.out.c_str());
+
+  std::vector<Draw> draws(indices.size());
+  std::vector<std::string> lines(indices.size());
+  std::vector<bool> done(indices.size(), false);
+  size_t next = 0, written = 0, finished = 0, passed = 0, ours_ok = 0;
+  std::vector<Child> running;
+  const auto t_start = Clock::now();
+  std::fflush(nullptr);  // children inherit no half-written buffers
+
+  auto finish = [&](size_t slot, const json& line) {
+    lines[slot] = line.dump();
+    done[slot] = true;
+    ++finished;
+    if (line.value("verdict", "") == "pass") ++passed;
+    if (line.contains("ours") && line["ours"].value("success", false)) ++ours_ok;
+    while (written < lines.size() && done[written]) {
+      out << lines[written] << '\n';
+      lines[written].clear();
+      ++written;
+    }
+    out.flush();
+    if (cmd.quiet) return;
+    const double elapsed = std::chrono::duration<double>(Clock::now() - t_start).count();
+    const double eta =
+        elapsed / static_cast<double>(finished) * static_cast<double>(indices.size() - finished);
+    if (tty) {
+      const int width = 30, filled = static_cast<int>(width * finished / indices.size());
+      std::fprintf(stderr, "\rbench [%s%s] %zu/%zu  ours within 1 mm %zu, welded %zu  %s, ETA %s   ",
+                   std::string(static_cast<size_t>(filled), '#').c_str(),
+                   std::string(static_cast<size_t>(width - filled), '.').c_str(), finished, indices.size(),
+                   ours_ok, passed, duration_text(elapsed).c_str(), duration_text(eta).c_str());
+    } else {
+      std::fprintf(stderr, "bench: %zu/%zu trial %llu %s: %s%s (%.1f s), ETA %s\n", finished, indices.size(),
+                   static_cast<unsigned long long>(indices[slot]), line["draw"].value("part", "?").c_str(),
+                   line.value("verdict", "?").c_str(),
+                   line.contains("cause") ? (" — " + line["cause"].get<std::string>()).c_str() : "",
+                   line["seconds"].value("total", 0.0), duration_text(eta).c_str());
+    }
+  };
+
+  while (finished < indices.size()) {
+    while (next < indices.size() && static_cast<int>(running.size()) < cmd.jobs) {
+      const size_t slot = next++;
+      Child child;
+      child.slot = slot;
+      child.start = Clock::now();
+      try {
+        draw_trial(cmd, cells, indices[slot], draws[slot]);
+      } catch (const std::exception& e) {
+        finish(slot, failed_trial(cmd, cells, draws[slot],
+                                  std::string("error: the cell could not be drawn: ") + e.what(), 0.0));
+        continue;
+      }
+      int fds[2];
+      if (pipe(fds) != 0)
+        throw std::runtime_error("bench: pipe() failed: " + std::string(std::strerror(errno)));
+      child.pid = fork();
+      if (child.pid < 0)
+        throw std::runtime_error("bench: fork() failed: " + std::string(std::strerror(errno)));
+      if (child.pid == 0) {  // the trial
+        close(fds[0]);
+        for (const Child& c : running) close(c.fd);
+        std::string text;
+        try {
+          inject_fault(cmd.fault, indices[slot]);
+          const Draw& d = draws[slot];
+          json line = run_trial(cmd, cells[d.cell], d);
+          line["draw"] = draw_json(d, cells, cmd);
+          text = line.dump();
+        } catch (const std::exception& e) {
+          text = failed_trial(cmd, cells, draws[slot], std::string("error: ") + e.what(), 0.0).dump();
+        }
+        text += '\n';
+        for (size_t off = 0; off < text.size();) {
+          const ssize_t n = write(fds[1], text.data() + off, text.size() - off);
+          if (n <= 0) break;
+          off += static_cast<size_t>(n);
+        }
+        _exit(0);
+      }
+      close(fds[1]);
+      child.fd = fds[0];
+      running.push_back(child);
+    }
+    if (running.empty()) continue;
+    std::vector<pollfd> polls;
+    for (const Child& c : running) polls.push_back({c.fd, POLLIN, 0});
+    poll(polls.data(), polls.size(), 200);
+    for (size_t k = 0; k < running.size();) {
+      Child& c = running[k];
+      bool ended = false;
+      if (polls[k].revents & (POLLIN | POLLHUP | POLLERR)) {
+        char buf[65536];
+        const ssize_t n = read(c.fd, buf, sizeof buf);
+        if (n > 0)
+          c.text.append(buf, static_cast<size_t>(n));
+        else
+          ended = true;
+      }
+      const double age = std::chrono::duration<double>(Clock::now() - c.start).count();
+      if (!ended && age > cmd.timeout_s) {
+        kill(c.pid, SIGKILL);
+        int status = 0;
+        waitpid(c.pid, &status, 0);
+        close(c.fd);
+        char cause[96];
+        std::snprintf(cause, sizeof cause, "timeout: killed after %.0f s", cmd.timeout_s);
+        finish(c.slot, failed_trial(cmd, cells, draws[c.slot], cause, age));
+        running.erase(running.begin() + static_cast<std::ptrdiff_t>(k));
+        polls.erase(polls.begin() + static_cast<std::ptrdiff_t>(k));
+        continue;
+      }
+      if (!ended) {
+        ++k;
+        continue;
+      }
+      int status = 0;
+      waitpid(c.pid, &status, 0);
+      close(c.fd);
+      json line;
+      bool parsed = false;
+      if (WIFEXITED(status) && WEXITSTATUS(status) == 0 && !c.text.empty()) {
+        try {
+          line = json::parse(c.text);
+          parsed = true;
+        } catch (const std::exception&) {
+        }
+      }
+      if (!parsed) {
+        std::string cause;
+        if (WIFSIGNALED(status))
+          cause =
+              "crash: signal " + std::to_string(WTERMSIG(status)) + " (" + strsignal(WTERMSIG(status)) + ")";
+        else
+          cause = "crash: exited with code " + std::to_string(WEXITSTATUS(status)) + " and no result";
+        line = failed_trial(cmd, cells, draws[c.slot], cause, age);
+      }
+      finish(c.slot, line);
+      running.erase(running.begin() + static_cast<std::ptrdiff_t>(k));
+      polls.erase(polls.begin() + static_cast<std::ptrdiff_t>(k));
+    }
+  }
+  const double elapsed = std::chrono::duration<double>(Clock::now() - t_start).count();
+  if (tty) std::fprintf(stderr, "\n");
+  if (!cmd.quiet)
+    std::fprintf(stderr, "bench: %zu trials in %s (%.2f s a trial): ours within 1 mm %zu, welded %zu; %s\n",
+                 indices.size(), duration_text(elapsed).c_str(),
+                 elapsed / std::max<double>(1.0, static_cast<double>(indices.size())), ours_ok, passed,
+                 cmd.out.c_str());
+  return 0;
+}
+
+}  // namespace weldtwin
