@@ -259,14 +259,16 @@ json failed_trial(const BenchCommand& cmd, const std::vector<BenchCell>& cells, 
   return j;
 }
 
-void inject_fault(const std::string& fault, uint64_t index) {
-  const size_t colon = fault.find(':');
-  if (fault.empty() || colon == std::string::npos || std::stoull(fault.substr(0, colon)) != index) return;
-  const std::string what = fault.substr(colon + 1);
-  if (what == "crash") std::raise(SIGSEGV);
-  if (what == "hang")
-    for (;;) std::this_thread::sleep_for(std::chrono::seconds(1));
-  if (what == "throw") throw std::runtime_error("fault injected for a test");
+void inject_fault(const std::vector<std::string>& faults, uint64_t index) {
+  for (const std::string& fault : faults) {
+    const size_t colon = fault.find(':');
+    if (colon == std::string::npos || std::stoull(fault.substr(0, colon)) != index) continue;
+    const std::string what = fault.substr(colon + 1);
+    if (what == "crash") std::raise(SIGSEGV);
+    if (what == "hang")
+      for (;;) std::this_thread::sleep_for(std::chrono::seconds(1));
+    if (what == "throw") throw std::runtime_error("fault injected for a test");
+  }
 }
 
 std::string duration_text(double s) {
@@ -295,6 +297,9 @@ int run_bench(const BenchCommand& cmd_in) {
     throw InputError("--shard K/N needs 0 <= K < N (got " + std::to_string(cmd.shard) + "/" +
                      std::to_string(cmd.shards) + ")");
   if (cmd.out.empty()) throw InputError("--out: the results file (JSON lines) is needed");
+  for (const std::string& f : cmd.faults)
+    if (f.find(':') == std::string::npos || f.find_first_not_of("0123456789") != f.find(':'))
+      throw InputError("--fault: '" + f + "' is not INDEX:crash|hang|throw");
   if (cmd.cells.empty())
     cmd.cells = {"scenes/cells/default.yaml", "scenes/cells/round_on_plate.yaml",
                  "scenes/cells/tube_tee.yaml"};
@@ -379,7 +384,7 @@ int run_bench(const BenchCommand& cmd_in) {
         for (const Child& c : running) close(c.fd);
         std::string text;
         try {
-          inject_fault(cmd.fault, indices[slot]);
+          inject_fault(cmd.faults, indices[slot]);
           const Draw& d = draws[slot];
           json line = run_trial(cmd, cells[d.cell], d);
           line["draw"] = draw_json(d, cells, cmd);

@@ -28,7 +28,7 @@ struct BenchCommand {
   double mount_error_rad = 0.0;    ///< and rotation sigma per axis [rad]
   double encoder_noise_rad = 0.0;  ///< joint encoder noise (sigma) on the recorded joint states [rad]
   bool quiet = false;
-  std::string fault;  ///< for tests: "INDEX:crash|hang|throw" makes that trial misbehave
+  std::vector<std::string> faults;  ///< for tests: "INDEX:crash|hang|throw" makes that trial misbehave
 };
 
 /// Runs the benchmark. Returns 0 when every trial was run and recorded (whatever their verdicts), 2 for bad

@@ -103,6 +103,14 @@ struct PartClearance::Impl {
   const MujocoWorld* world = nullptr;
   std::unique_ptr<MeshRays> rays;
   std::vector<Chunk> chunks;
+  // Each robot geom's chunks, and a sphere about its frame's origin holding them all: a geom whose sphere
+  // is farther from the part than the nearest point found so far is passed over with one query.
+  struct GeomChunks {
+    int geom = 0;
+    double radius = 0.0;
+    size_t first = 0, end = 0;
+  };
+  std::vector<GeomChunks> geoms;
   double range = 0.05;
 };
 
@@ -118,6 +126,12 @@ PartClearance::PartClearance(const MujocoWorld& world, const Mesh& part_mesh, co
   for (int g = 0; g < m->ngeom; ++g)
     if (world.geom_label(g) == Label::kRobot) {
       std::vector<Chunk> c = make_chunks(m, g, 0.003, 0.03);
+      Impl::GeomChunks gc;
+      gc.geom = g;
+      gc.first = impl_->chunks.size();
+      gc.end = gc.first + c.size();
+      for (const Chunk& k : c) gc.radius = std::max(gc.radius, k.center.norm() + k.radius);
+      impl_->geoms.push_back(gc);
       impl_->chunks.insert(impl_->chunks.end(), std::make_move_iterator(c.begin()),
                            std::make_move_iterator(c.end()));
     }
@@ -128,16 +142,21 @@ double PartClearance::clearance(const mjData* d, std::string* geom) const {
   double best = impl_->range;
   int best_geom = -1;
   Vec3 best_point = Vec3::Zero();
-  for (const Chunk& c : impl_->chunks) {
-    const double dc = rays.distance(geom_to_base(d, c.geom, c.center), best + c.radius);
-    if (!std::isfinite(dc) || dc - c.radius >= best) continue;
-    for (const Vec3& p : c.points) {
-      const Vec3 pb = geom_to_base(d, c.geom, p);
-      const double dp = rays.distance(pb, best);
-      if (dp < best) {
-        best = dp;
-        best_geom = c.geom;
-        best_point = pb;
+  for (const Impl::GeomChunks& g : impl_->geoms) {
+    const double dg = rays.distance(geom_to_base(d, g.geom, Vec3::Zero()), best + g.radius);
+    if (!std::isfinite(dg) || dg - g.radius >= best) continue;
+    for (size_t k = g.first; k < g.end; ++k) {
+      const Chunk& c = impl_->chunks[k];
+      const double dc = rays.distance(geom_to_base(d, c.geom, c.center), best + c.radius);
+      if (!std::isfinite(dc) || dc - c.radius >= best) continue;
+      for (const Vec3& p : c.points) {
+        const Vec3 pb = geom_to_base(d, c.geom, p);
+        const double dp = rays.distance(pb, best);
+        if (dp < best) {
+          best = dp;
+          best_geom = c.geom;
+          best_point = pb;
+        }
       }
     }
   }
