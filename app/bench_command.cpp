@@ -301,8 +301,8 @@ int run_bench(const BenchCommand& cmd_in) {
     if (f.find(':') == std::string::npos || f.find_first_not_of("0123456789") != f.find(':'))
       throw InputError("--fault: '" + f + "' is not INDEX:crash|hang|throw");
   if (cmd.cells.empty())
-    cmd.cells = {"scenes/cells/default.yaml", "scenes/cells/round_on_plate.yaml",
-                 "scenes/cells/tube_tee.yaml"};
+    for (const char* name : {"default", "round_on_plate", "tube_tee"})
+      cmd.cells.push_back(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/" + name + ".yaml");
   if (cmd.jobs <= 0) cmd.jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   std::vector<BenchCell> cells;
   for (const std::string& f : cmd.cells) cells.emplace_back(f);

@@ -94,7 +94,11 @@ std::map<uint64_t, json> merge(const std::vector<std::string>& inputs, uint64_t&
       }
     }
   }
-  if (trials.empty()) throw InputError("bench-report: no trials in the input");
+  if (trials.empty()) {
+    std::string names;
+    for (const std::string& f : inputs) names += (names.empty() ? "" : ", ") + f;
+    throw input_error(names, "no trials in the input");
+  }
   return trials;
 }
 
@@ -177,6 +181,7 @@ json summarise(const std::map<uint64_t, json>& trials, uint64_t seed) {
     else
       s["parts"][key] = p;
   }
+  s["seconds"] = json::object();
   for (const auto& [stage, v] : seconds) s["seconds"][stage] = percentiles(v);
   s["failure_kinds"] = kinds;
   std::vector<std::pair<size_t, std::string>> sorted;
