@@ -173,12 +173,14 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d) {
                Eigen::AngleAxisd(d.mount_rpy_rad.x(), Vec3::UnitX()));
   const RobotModel real_robot = mount_error ? c.robot.with_mount_offset(lidar_link, delta) : c.robot;
   const MujocoWorld world(c.cell, c.part, real_robot, d.layout);
+  lap("world");
   LidarSetting lidar;
   lidar.apply(c.cell.lidar_overrides, c.cell.source);
   lidar.seed = d.lidar_seed;
   SweepOptions options;
   options.threads = 1;  // trials run side by side instead
   SweepResult sweep = simulate_sweep(world, real_robot, c.program, lidar, options);
+  lap("sweep");
   if (cmd.encoder_noise_rad > 0) {
     std::mt19937_64 rng(d.encoder_seed);
     std::normal_distribution<double> noise(0.0, cmd.encoder_noise_rad);
@@ -187,7 +189,7 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d) {
   }
   const AssembledCloud cloud = assemble_scan(sweep.log, c.robot);
   j["scan_points"] = cloud.points_base.size();
-  lap("sweep");
+  lap("assemble");
 
   LocalizeSetting setting;
   setting.threads = 1;
@@ -225,6 +227,7 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d) {
     if (plan.ok() && !plan.samples.empty()) {
       ReplaySetting replay_setting;
       replay_setting.threads = 1;
+      replay_setting.timestep_s = cmd.replay_step_s;
       const ReplayResult r =
           replay_plan(world, real_robot, plan, c.part, c.mesh, d.layout.T_base_part, replay_setting);
       json rj;
