@@ -6,7 +6,7 @@ CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 # ccache: paths relative to the checkout, so that clones elsewhere share the cache.
 export CCACHE_BASEDIR := $(CURDIR)
 
-.PHONY: setup configure build run test bench coverage localize-survey format clean
+.PHONY: setup configure build run test bench random-bench coverage localize-survey format clean
 
 setup:
 	@bash scripts/setup
@@ -28,6 +28,14 @@ test: build
 
 bench: build
 	$(BUILD)/benchmarks/weldtwin_bench --benchmark_min_time=0.5
+
+# The randomized-pose benchmark: TRIALS random cells end to end, ours and the paper's method side by side, and
+# its report (out/bench/report.html). About 45 minutes for 1000 trials on 2 cores.
+TRIALS ?= 1000
+random-bench: build
+	@mkdir -p $(OUT)/bench
+	$(BUILD)/app/weldtwin bench --trials $(TRIALS) --seed 1 --jobs $(JOBS) --out $(OUT)/bench/results.jsonl
+	$(BUILD)/app/weldtwin bench-report $(OUT)/bench/results.jsonl --out $(OUT)/bench
 
 # What the default sweep sees of each part at 50 random layouts, and how often each can be welded (minutes).
 coverage: build

@@ -225,9 +225,9 @@ std::vector<std::array<std::string, 3>> plots(const std::map<uint64_t, json>& tr
      << "set datafile missing 'nan'\nset logscale x\nset format x '%g'\n"
      << "set output '" << dir << "/bench_cdf.png'\nset xlabel 'worst seam point off the truth [mm]'\n"
      << "set ylabel 'fraction of all trials'\nset yrange [0:1]\n"
+     << "set arrow 1 from 1,0 to 1,1 nohead dt 2 lw 1.5 lc rgb 'red'\n"
      << "plot '" << dir << "/bench_cdf.dat' using 1:2 with steps lw 2 title 'ours (found)', '' using 3:4 "
-     << "with steps lw 2 title 'paper', 1 with lines notitle\n"
-     << "set arrow 1 from 1,0 to 1,1 nohead dt 2 lc rgb 'red'\nreplot\nunset arrow 1\n"
+     << "with steps lw 2 title 'paper'\nunset arrow 1\n"
      << "unset logscale x\nset logscale y\nset format y '%g'\nset yrange [*:*]\n"
      << "set output '" << dir << "/bench_yaw.png'\nset xlabel 'part yaw [deg]'\nset xrange [0:360]\n"
      << "set ylabel 'seam error [mm]'\n"
@@ -254,6 +254,15 @@ std::string pct_ci(const json& r) {
          "/" + std::to_string(r["of"].get<size_t>()) + "; 95 % CI " +
          html::num(100 * r["ci95"][0].get<double>(), 1) + "-" +
          html::num(100 * r["ci95"][1].get<double>(), 1) + " %)";
+}
+
+// A table cell: the rate, and under it the counts and the interval in small print.
+std::string rate_cell(const json& r) {
+  if (!r.contains("rate")) return "-";
+  return html::num(100 * r["rate"].get<double>(), 1) + " %<br><small>" +
+         std::to_string(r["count"].get<size_t>()) + "/" + std::to_string(r["of"].get<size_t>()) + ", CI " +
+         html::num(100 * r["ci95"][0].get<double>(), 1) + "-" +
+         html::num(100 * r["ci95"][1].get<double>(), 1) + "</small>";
 }
 
 std::string mm3(const json& p) {
@@ -304,13 +313,13 @@ int run_bench_report(const BenchReportCommand& cmd) {
   auto row = [&](const std::string& name, const json& p) {
     const bool paper = p.contains("paper");
     h << "<tr><td>" << html::escape(name) << "</td><td>" << p["trials"].get<size_t>() << "</td><td>"
-      << html::escape(pct_ci(p["ours"]["seams_under_1mm"])) << "</td><td>"
-      << (paper ? html::escape(pct_ci(p["paper"]["seams_under_1mm"])) : "-") << "</td><td>"
-      << html::escape(pct_ci(p["ours"]["localization_success"])) << "</td><td>"
-      << (paper ? html::escape(pct_ci(p["paper"]["localization_success"])) : "-") << "</td><td"
+      << rate_cell(p["ours"]["seams_under_1mm"]) << "</td><td>"
+      << (paper ? rate_cell(p["paper"]["seams_under_1mm"]) : "-") << "</td><td>"
+      << rate_cell(p["ours"]["localization_success"]) << "</td><td>"
+      << (paper ? rate_cell(p["paper"]["localization_success"]) : "-") << "</td><td"
       << (p["ours"]["false_accepts"].get<size_t>() > 0 ? " class=\"bad\"" : "") << ">"
-      << p["ours"]["false_accepts"].get<size_t>() << "</td><td>" << html::escape(pct_ci(p["planned"]))
-      << "</td><td>" << html::escape(pct_ci(p["welded"])) << "</td></tr>\n";
+      << p["ours"]["false_accepts"].get<size_t>() << "</td><td>" << rate_cell(p["planned"]) << "</td><td>"
+      << rate_cell(p["welded"]) << "</td></tr>\n";
   };
   if (s.contains("parts"))
     for (const auto& [name, p] : s["parts"].items()) row(name, p);
@@ -328,11 +337,18 @@ int run_bench_report(const BenchReportCommand& cmd) {
   err_row("all", all);
   h << "</table>\n<h2>Time per stage [s]</h2>\n<table><tr><th>stage</th><th>mean</th><th>median</th><th>p95"
        "</th><th>max</th></tr>\n";
+  std::vector<std::string> stages;  // in the order of a trial, then any others
+  for (const char* k : {"world", "sweep", "assemble", "ours", "paper", "plan", "replay", "total"})
+    if (s["seconds"].contains(k)) stages.push_back(k);
   for (const auto& [stage, p] : s["seconds"].items())
+    if (std::find(stages.begin(), stages.end(), stage) == stages.end()) stages.push_back(stage);
+  for (const std::string& stage : stages) {
+    const json& p = s["seconds"][stage];
     h << "<tr><td>" << html::escape(stage) << "</td><td>" << html::num(p["mean"].get<double>(), 2)
       << "</td><td>" << html::num(p["median"].get<double>(), 2) << "</td><td>"
       << html::num(p["p95"].get<double>(), 2) << "</td><td>" << html::num(p["max"].get<double>(), 2)
       << "</td></tr>\n";
+  }
   h << "</table>\n<h2>Why trials failed</h2>\n";
   if (!s.contains("failure_causes")) {
     h << "<p>None did.</p>\n";
