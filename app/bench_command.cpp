@@ -17,7 +17,9 @@
 #include <random>
 #include <thread>
 
+#include "app/localize_command.hpp"
 #include "app/plan_command.hpp"
+#include "perception/cloud_io.hpp"
 #include "core/cell_spec.hpp"
 #include "core/error.hpp"
 #include "perception/localizer.hpp"
@@ -209,12 +211,13 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d) {
     reasons.push_back("localization: seam " + std::to_string(1e3 * ours_error.seam_max_m).substr(0, 5) +
                       " mm off the truth, and the part was accepted");
   bool seams_under_1mm = ours.found && ours_error.seam_max_m <= 1e-3;
+  PlanSetting plan_setting;
+  WeldPlan plan;
   if (cmd.replay && ours.found) {
-    PlanSetting plan_setting;
     CollisionChecker checker(world);
     checker.add_part(c.mesh, ours.T_base_part);
     plan_setting.collision = checker;
-    const WeldPlan plan =
+    plan =
         plan_welds(c.part, ours.T_base_part, c.robot, plan_setting);  // as the controller knows it
     json p;
     p["ok"] = plan.ok();
@@ -244,6 +247,22 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d) {
   }
   j["seams_under_1mm"] = seams_under_1mm;
   set_verdict(j, reasons);
+  if (!reasons.empty() && !cmd.keep_failed.empty()) {
+    // What it takes to look again: `weldtwin replay DIR/plan.json CELL --seed <draw.layout_seed>` shows the
+    // replay with pictures; `weldtwin localize --scan DIR/scan.pcd` the localization.
+    const std::string dir = cmd.keep_failed + "/trial-" + std::to_string(d.index);
+    std::filesystem::create_directories(dir);
+    write_pcd(dir + "/scan.pcd", cloud.points_base);
+    json truth = {{"T_base_part", json::array()}};
+    for (int r = 0; r < 4; ++r)
+      truth["T_base_part"].push_back({d.layout.T_base_part(r, 0), d.layout.T_base_part(r, 1),
+                                      d.layout.T_base_part(r, 2), d.layout.T_base_part(r, 3)});
+    std::ofstream(dir + "/pose_ours.json") << pose_to_json(ours).dump(1) << '\n';
+    std::ofstream(dir + "/pose_true.json") << truth.dump(1) << '\n';
+    if (!plan.samples.empty())
+      std::ofstream(dir + "/plan.json") << plan_to_json(plan, c.part, c.robot, plan_setting).dump() << '\n';
+    j["kept"] = dir;
+  }
   seconds["total"] = rounded(std::chrono::duration<double>(Clock::now() - t0).count(), 1e-4);
   j["seconds"] = seconds;
   return j;

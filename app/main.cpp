@@ -137,6 +137,9 @@ int main(int argc, char** argv) {
   bc->add_option("--mount-error-mm", mount_mm, "LiDAR mount error drawn per trial: sigma per axis [mm]");
   bc->add_option("--mount-error-deg", mount_deg, "LiDAR mount error drawn per trial: sigma per axis [deg]");
   bc->add_option("--encoder-noise-rad", bench.encoder_noise_rad, "joint encoder noise sigma [rad]");
+  bc->add_option("--keep-failed", bench.keep_failed,
+                 "DIR: keep each failed trial's scan (PCD), poses and plan in DIR/trial-INDEX/ (to look again "
+                 "with weldtwin replay / localize)");
   bc->add_option("--fault", bench.faults, "for tests: INDEX:crash|hang|throw (repeatable)")->group("");
   bc->add_flag("-q,--quiet", bench.quiet, "no progress output");
 

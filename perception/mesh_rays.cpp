@@ -125,15 +125,23 @@ double MeshRays::distance(const Vec3& p, double max_m) const {
 }
 
 bool MeshRays::inside(const Vec3& p) const {
-  // An oblique direction, so that the ray does not run along the axis-aligned edges parts are made of.
-  const Vec3 d = Vec3(0.1234, 0.2345, 0.9642).normalized();
-  int crossings = 0;
-  for (double t = 0.0; crossings < 1000; ++crossings) {
-    const double next = hit(p, d, t + 1e-7);
-    if (!std::isfinite(next)) break;
-    t = next;
+  // Oblique directions, so that the rays do not run along the axis-aligned edges parts are made of; three of
+  // them and the majority, because a ray through an edge or a vertex can slip between two triangles (or meet
+  // both) and flip its parity.
+  static const Vec3 directions[3] = {Vec3(0.1234, 0.2345, 0.9642).normalized(),
+                                     Vec3(-0.8311, 0.3127, -0.4597).normalized(),
+                                     Vec3(0.3719, -0.9013, 0.2221).normalized()};
+  int votes = 0;
+  for (const Vec3& d : directions) {
+    int crossings = 0;
+    for (double t = 0.0; crossings < 1000; ++crossings) {
+      const double next = hit(p, d, t + 1e-7);
+      if (!std::isfinite(next)) break;
+      t = next;
+    }
+    votes += crossings % 2;
   }
-  return crossings % 2 == 1;
+  return votes >= 2;
 }
 
 }  // namespace weldtwin
