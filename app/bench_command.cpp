@@ -19,9 +19,9 @@
 
 #include "app/localize_command.hpp"
 #include "app/plan_command.hpp"
-#include "perception/cloud_io.hpp"
 #include "core/cell_spec.hpp"
 #include "core/error.hpp"
+#include "perception/cloud_io.hpp"
 #include "perception/localizer.hpp"
 #include "perception/paper_localizer.hpp"
 #include "perception/pose_error.hpp"
@@ -217,8 +217,7 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d) {
     CollisionChecker checker(world);
     checker.add_part(c.mesh, ours.T_base_part);
     plan_setting.collision = checker;
-    plan =
-        plan_welds(c.part, ours.T_base_part, c.robot, plan_setting);  // as the controller knows it
+    plan = plan_welds(c.part, ours.T_base_part, c.robot, plan_setting);  // as the controller knows it
     json p;
     p["ok"] = plan.ok();
     if (!plan.ok()) p["problem"] = plan.problems.front();

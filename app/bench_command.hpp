@@ -23,13 +23,13 @@ struct BenchCommand {
   std::vector<std::string> cells;  ///< the parts' cells, drawn among uniformly ("" = the three of scenes/)
   bool paper = true;               ///< the paper's pipeline on every scan, side by side
   bool replay = true;              ///< plan and replay (off: localization only)
-  double replay_step_s = 0.005;  ///< physics step of the replay (weldtwin run: 2.5 ms; see ReplaySetting)
+  double replay_step_s = 0.005;    ///< physics step of the replay (weldtwin run: 2.5 ms; see ReplaySetting)
   double timeout_s = 600.0;        ///< a trial running longer is killed and recorded as a timeout
   double mount_error_m = 0.0;      ///< LiDAR mount error drawn per trial: translation sigma per axis [m]
   double mount_error_rad = 0.0;    ///< and rotation sigma per axis [rad]
   double encoder_noise_rad = 0.0;  ///< joint encoder noise (sigma) on the recorded joint states [rad]
   bool quiet = false;
-  std::string keep_failed;  ///< DIR: a failed trial's scan, poses and plan go to DIR/trial-INDEX/
+  std::string keep_failed;          ///< DIR: a failed trial's scan, poses and plan go to DIR/trial-INDEX/
   std::vector<std::string> faults;  ///< for tests: "INDEX:crash|hang|throw" makes that trial misbehave
 };
 

@@ -32,6 +32,12 @@ int main(int argc, char** argv) {
   rc->add_option("--out", run.out, "output directory (default: out/run)");
   rc->add_flag("--no-renders", no_renders, "figures only: no OSMesa pictures or plots (faster)");
   rc->add_option("--threads", run.threads, "ray-casting threads (default: all cores)");
+  rc->add_option(
+        "--source", run.source,
+        "where the sweep comes from: sim (the twin, default), or log:FILE — a recorded sweep (ScanLog, "
+        "ROS 1 bag, ROS 2 bag directory); the cell (and --seed) still stand for the truth and the "
+        "twin the plan is replayed in")
+      ->capture_default_str();
   rc->add_flag("-q,--quiet", run.quiet, "no progress lines");
 
   weldtwin::ReplayCommand replay;
@@ -65,6 +71,10 @@ int main(int argc, char** argv) {
   sc->add_option("--truth", scan.truth,
                  "ground truth to write (.json): T_base_part, clamps, per-point labels");
   sc->add_option("--mjcf", scan.mjcf, "save the composed MuJoCo model of the cell (.xml)");
+  sc->add_option("--rosbag", scan.rosbag1,
+                 "also write the sweep as a ROS 1 bag (.bag: sensor_msgs/LaserScan on /scan, one per turn; "
+                 "sensor_msgs/JointState on /joint_states)");
+  sc->add_option("--rosbag2", scan.rosbag2, "also write the sweep as a ROS 2 bag directory (sqlite3, CDR)");
   sc->add_flag("--noise-free", scan.noise_free,
                "exact ranges: no noise, quantisation, dropouts or mixed pixels");
   sc->add_option("--threads", scan.threads, "ray-casting threads (default: all cores)");
@@ -137,9 +147,10 @@ int main(int argc, char** argv) {
   bc->add_option("--mount-error-mm", mount_mm, "LiDAR mount error drawn per trial: sigma per axis [mm]");
   bc->add_option("--mount-error-deg", mount_deg, "LiDAR mount error drawn per trial: sigma per axis [deg]");
   bc->add_option("--encoder-noise-rad", bench.encoder_noise_rad, "joint encoder noise sigma [rad]");
-  bc->add_option("--keep-failed", bench.keep_failed,
-                 "DIR: keep each failed trial's scan (PCD), poses and plan in DIR/trial-INDEX/ (to look again "
-                 "with weldtwin replay / localize)");
+  bc->add_option(
+      "--keep-failed", bench.keep_failed,
+      "DIR: keep each failed trial's scan (PCD), poses and plan in DIR/trial-INDEX/ (to look again "
+      "with weldtwin replay / localize)");
   bc->add_option("--fault", bench.faults, "for tests: INDEX:crash|hang|throw (repeatable)")->group("");
   bc->add_flag("-q,--quiet", bench.quiet, "no progress output");
 

@@ -10,6 +10,7 @@
 #include "app/report.hpp"
 #include "core/cell_spec.hpp"
 #include "core/error.hpp"
+#include "hw/scan_source.hpp"
 #include "perception/cloud_io.hpp"
 #include "perception/mesh_io.hpp"
 #include "perception/scan_assembly.hpp"
@@ -59,16 +60,30 @@ int run_job(const RunCommand& cmd) {
   stage_done("setup");
 
   // 1. The sweep.
-  SweepOptions options;
-  options.threads = cmd.threads;
-  const SweepResult sweep = simulate_sweep(world, robot, program, lidar, options);
-  sweep.log.write(cmd.out + "/scan.scanlog");
-  const AssembledCloud cloud = assemble_scan(sweep.log, robot);
+  SimScanInputs sim;
+  sim.world = &world;
+  sim.robot = &robot;
+  sim.program = &program;
+  sim.lidar = lidar;
+  sim.options.threads = cmd.threads;
+  const std::unique_ptr<ScanSource> source = make_scan_source(cmd.source, robot, sim);
+  const ScanLog log = source->acquire();
+  log.write(cmd.out +
+            "/scan.scanlog");  // every run keeps its sweep: `--source log:DIR/scan.scanlog` replays it
+  AssembledCloud cloud;
+  try {
+    cloud = assemble_scan(log, robot);
+  } catch (const std::invalid_argument& e) {  // a log of another robot
+    throw input_error(cmd.source, e.what());
+  }
   write_pcd(cmd.out + "/scan.pcd", cloud.points_base);
   run.cloud = cloud.points_base;
-  for (uint32_t k : cloud.sample_index) run.cloud_labels.push_back(sweep.labels[k]);
-  std::snprintf(buf, sizeof buf, "%.1f s sweep simulated, %zu points (%.2f s)", program.duration_s(),
-                cloud.points_base.size(), stage_done("sweep"));
+  const std::vector<Label> labels = source->labels();
+  if (!labels.empty())
+    for (uint32_t k : cloud.sample_index) run.cloud_labels.push_back(labels[k]);
+  const double sweep_s = log.samples.empty() ? 0.0 : log.samples.back().t_s - log.samples.front().t_s;
+  std::snprintf(buf, sizeof buf, "%.1f s sweep from %s, %zu points (%.2f s)", sweep_s,
+                source->describe().c_str(), cloud.points_base.size(), stage_done("sweep"));
   say("[1/5] scan", buf);
 
   // 2. Localization, judged against the truth only the twin knows.

@@ -15,6 +15,7 @@ struct RunCommand {
   bool renders = true;  ///< OSMesa pictures and plots in the report (off: figures only, faster)
   bool quiet = false;
   int threads = 0;
+  std::string source = "sim";  ///< sim | log:FILE | lidar:DEV (hw/scan_source.hpp)
 };
 
 /// Returns the exit code: 0 PASS, 3 FAIL (the report says why). Throws InputError for bad input.

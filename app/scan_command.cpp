@@ -1,5 +1,7 @@
 #include "app/scan_command.hpp"
 
+#include "hw/ros_bags.hpp"
+
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -70,6 +72,14 @@ int run_scan(const ScanCommand& cmd) {
 
   sweep.log.write(cmd.out_log);
   say("wrote the scan log to " + cmd.out_log);
+  if (!cmd.rosbag1.empty()) {
+    write_ros1_bag(cmd.rosbag1, sweep.log);
+    say("wrote the sweep as a ROS 1 bag to " + cmd.rosbag1);
+  }
+  if (!cmd.rosbag2.empty()) {
+    write_ros2_bag(cmd.rosbag2, sweep.log);
+    say("wrote the sweep as a ROS 2 bag to " + cmd.rosbag2);
+  }
 
   if (cmd.cloud.empty() && cmd.truth.empty()) return 0;
   const AssembledCloud cloud = assemble_scan(sweep.log, robot);

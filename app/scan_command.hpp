@@ -12,9 +12,11 @@ struct ScanCommand {
   std::string cell;
   std::optional<uint64_t> seed;
   std::string out_log;
-  std::string cloud;  ///< "" = none
-  std::string truth;  ///< "" = none
-  std::string mjcf;   ///< "" = none: where to save the composed MJCF
+  std::string cloud;    ///< "" = none
+  std::string truth;    ///< "" = none
+  std::string mjcf;     ///< "" = none: where to save the composed MJCF
+  std::string rosbag1;  ///< "" = none: the sweep as a ROS 1 bag too (/scan, /joint_states)
+  std::string rosbag2;  ///< "" = none: the sweep as a ROS 2 bag directory too (sqlite3, CDR)
   bool noise_free = false;
   int threads = 0;
   bool quiet = false;

@@ -49,7 +49,7 @@ void run_turns(const TurnWork& w, std::atomic<size_t>& next, std::atomic<size_t>
       const size_t i = lt.first + k;
       LidarSample& s = w.out.log.samples[i];
       // Sample times are integer multiples of the sample period, as the joint log's are.
-      s.t_s = static_cast<double>(i) * dt;
+      s.t_s = static_cast<double>(i) / w.lidar.sample_rate_hz;  // the double nearest i / rate
       s.angle_rad = static_cast<float>(k * step);
       const long slice = static_cast<long>(std::floor(s.t_s / w.options.slice_s));
       if (slice != current_slice) {

@@ -165,5 +165,37 @@ TEST(Cli, ReplayJudgesAPlanInTheCellItWasMadeForAndNotElsewhere) {
       weldtwin("replay " + temp_file("bad_plan.json", "{\"samples\": [{\"t\": 0, \"q\": [1, 2]}]}")), "q[6]");
 }
 
+// The switch on the command line: a sweep recorded by `weldtwin scan` as a ROS 1 and a ROS 2 bag, run through
+// `--source log:`, finds the part where the live twin run finds it and gives the same verdict; a live LiDAR
+// source that is not there is refused with one line.
+TEST(Cli, RunFromRecordedBagsMatchesTheLiveRun) {
+  const auto dir = std::filesystem::temp_directory_path() / "weldtwin_cli_source";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string cell = test::repo("scenes/cells/default.yaml");
+  ASSERT_EQ(weldtwin("scan " + cell + " -q --out " + (dir / "s.scanlog").string() + " --rosbag " +
+                     (dir / "s.bag").string() + " --rosbag2 " + (dir / "s_ros2").string())
+                .code,
+            0);
+  const CliRun live = weldtwin("run " + cell + " --no-renders -q --out " + (dir / "live").string());
+  ASSERT_TRUE(live.code == 0 || live.code == 3) << live.err;
+  auto pose_of = [](const std::filesystem::path& run) {
+    std::ifstream in(run / "pose.json");
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    return text.substr(text.find("\"T_base_part\""), 400);
+  };
+  for (const char* log : {"s.bag", "s_ros2"}) {
+    const CliRun r = weldtwin("run " + cell + " --no-renders -q --source log:" + (dir / log).string() +
+                              " --out " + (dir / (std::string("from_") + log)).string());
+    EXPECT_EQ(r.code, live.code) << log << ": " << r.err;
+    EXPECT_EQ(pose_of(dir / (std::string("from_") + log)), pose_of(dir / "live")) << log;
+  }
+  expect_bad_input(weldtwin("run --no-renders -q --source lidar:/dev/ttyUSB7 --out " + (dir / "x").string()),
+                   "not built yet");
+  expect_bad_input(weldtwin("run --no-renders -q --source log:" + (dir / "nothing.bag").string() + " --out " +
+                            (dir / "x").string()),
+                   "nothing.bag");
+}
+
 }  // namespace
 }  // namespace weldtwin

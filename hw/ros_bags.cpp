@@ -1,0 +1,509 @@
+#include "hw/ros_bags.hpp"
+
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/JointState.h>
+#include <sensor_msgs/LaserScan.h>
+#include <sqlite3.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+
+#include "core/error.hpp"
+
+namespace weldtwin {
+namespace {
+
+constexpr double kTwoPi = 2.0 * kPi;
+
+// The two messages, whatever the bag: what a ScanLog needs of them.
+struct ScanMsg {
+  int64_t stamp_ns = 0;
+  float angle_min = 0, angle_increment = 0, time_increment = 0, range_min = 0, range_max = 0;
+  std::vector<float> ranges, intensities;
+};
+
+struct JointMsg {
+  int64_t stamp_ns = 0;
+  std::vector<std::string> names;
+  std::vector<double> position;
+};
+
+ScanLog to_scan_log(std::vector<ScanMsg> scans, std::vector<JointMsg> joints, const RobotModel& robot,
+                    const std::string& source, const std::string& file) {
+  if (scans.empty()) throw input_error(file, "no sensor_msgs/LaserScan messages");
+  if (joints.empty()) throw input_error(file, "no sensor_msgs/JointState messages");
+  auto by_stamp = [](const auto& a, const auto& b) { return a.stamp_ns < b.stamp_ns; };
+  std::stable_sort(scans.begin(), scans.end(), by_stamp);
+  std::stable_sort(joints.begin(), joints.end(), by_stamp);
+  const int64_t t0 = std::min(scans.front().stamp_ns, joints.front().stamp_ns);
+  ScanLog log;
+  log.source = source;
+  log.robot = robot.name();
+  log.joint_names = robot.joint_names();
+  for (const ScanMsg& m : scans) {
+    if (!std::isfinite(m.angle_min) || !std::isfinite(m.angle_increment) || !std::isfinite(m.time_increment))
+      throw input_error(file, "a LaserScan with a non-finite angle or time increment");
+    const bool have_quality =
+        m.intensities.size() == m.ranges.size() &&
+        std::any_of(m.intensities.begin(), m.intensities.end(), [](float v) { return v > 0.0f; });
+    LidarTurn turn;
+    const int64_t start_ns = m.stamp_ns - t0;
+    turn.t_start_s = static_cast<double>(start_ns) / 1e9;
+    turn.first = static_cast<uint32_t>(log.samples.size());
+    turn.count = static_cast<uint32_t>(m.ranges.size());
+    // A time increment that is a whole number of nanoseconds as far as float32 tells (the A2's 125 us) is
+    // taken as exactly that, and a full turn's angle increment as exactly 2 pi / n: then a sweep recorded
+    // from the twin comes back bit for bit.
+    const double inc_ns = static_cast<double>(m.time_increment) * 1e9;
+    const bool whole_ns = std::abs(inc_ns - std::round(inc_ns)) < 0.01;
+    const int64_t step_ns = std::llround(inc_ns);
+    const double n = static_cast<double>(m.ranges.size());
+    double angle_step = static_cast<double>(m.angle_increment);
+    if (m.ranges.size() > 1 && std::abs(n * angle_step - kTwoPi) < 1e-4) angle_step = kTwoPi / n;
+    for (size_t i = 0; i < m.ranges.size(); ++i) {
+      LidarSample s;
+      const double k = static_cast<double>(i);
+      s.t_s = whole_ns ? static_cast<double>(start_ns + static_cast<int64_t>(i) * step_ns) / 1e9
+                       : turn.t_start_s + k * static_cast<double>(m.time_increment);
+      double a = static_cast<double>(m.angle_min) + k * angle_step;
+      a = std::fmod(a, kTwoPi);
+      if (a < 0) a += kTwoPi;
+      s.angle_rad = static_cast<float>(a);
+      if (s.angle_rad >= static_cast<float>(kTwoPi)) s.angle_rad = 0.0f;
+      const float r = m.ranges[i];
+      const bool valid = std::isfinite(r) && r > 0.0f && r >= m.range_min && r <= m.range_max;
+      s.range_m = valid ? r : 0.0f;
+      s.quality = !valid         ? 0
+                  : have_quality ? static_cast<uint8_t>(std::clamp(std::lround(m.intensities[i]), 1l, 255l))
+                                 : 255;
+      log.samples.push_back(s);
+    }
+    log.turns.push_back(turn);
+  }
+  std::vector<int> column;  // robot joint j is message entry column[j]
+  for (const JointMsg& m : joints) {
+    if (m.names.size() != m.position.size())
+      throw input_error(file, "a JointState with " + std::to_string(m.names.size()) + " names and " +
+                                  std::to_string(m.position.size()) + " positions");
+    column.assign(robot.joint_names().size(), -1);
+    for (size_t j = 0; j < robot.joint_names().size(); ++j)
+      for (size_t k = 0; k < m.names.size(); ++k)
+        if (m.names[k] == robot.joint_names()[j]) column[j] = static_cast<int>(k);
+    for (size_t j = 0; j < column.size(); ++j)
+      if (column[j] < 0)
+        throw input_error(file, "a JointState without joint '" + robot.joint_names()[j] + "' of robot '" +
+                                    robot.name() + "'");
+    JointState s;
+    s.t_s = static_cast<double>(m.stamp_ns - t0) / 1e9;
+    for (size_t j = 0; j < column.size(); ++j)
+      s.q[static_cast<int>(j)] = m.position[static_cast<size_t>(column[j])];
+    if (!s.q.allFinite()) throw input_error(file, "a JointState with a non-finite position");
+    if (!log.joints.empty() && s.t_s <= log.joints.back().t_s) continue;  // a repeated stamp: keep the first
+    log.joints.push_back(s);
+  }
+  return log;
+}
+
+int64_t to_ns(double seconds) {
+  return std::llround(seconds * 1e9);
+}
+
+// The messages of a ScanLog: a LaserScan per turn (evenly spaced angles and times, as a LaserScan holds
+// them), a JointState per joint state.
+void from_scan_log(const ScanLog& log, double epoch_s, std::vector<ScanMsg>& scans,
+                   std::vector<JointMsg>& joints) {
+  const int64_t epoch = to_ns(epoch_s);
+  float lo = 0.15f, hi = 12.0f;
+  for (const LidarSample& s : log.samples)
+    if (s.range_m > 0) lo = std::min(lo, s.range_m), hi = std::max(hi, s.range_m);
+  for (size_t k = 0; k < log.turns.size(); ++k) {
+    const LidarTurn& turn = log.turns[k];
+    if (turn.count == 0) continue;
+    const LidarSample* s = &log.samples[turn.first];
+    ScanMsg m;
+    m.stamp_ns = epoch + to_ns(s[0].t_s);
+    m.angle_min = s[0].angle_rad;
+    if (turn.count > 1) {
+      double da = static_cast<double>(s[1].angle_rad) - s[0].angle_rad;
+      if (da < 0) da += kTwoPi;
+      m.angle_increment = static_cast<float>(da);
+      m.time_increment = static_cast<float>(s[1].t_s - s[0].t_s);
+    }
+    for (uint32_t i = 0; i < turn.count; ++i) {
+      double a = static_cast<double>(m.angle_min) + i * static_cast<double>(m.angle_increment);
+      a = std::fmod(a, kTwoPi);
+      double off = std::abs(a - s[i].angle_rad);
+      off = std::min(off, kTwoPi - off);
+      const double dt = std::abs(s[0].t_s + i * static_cast<double>(m.time_increment) - s[i].t_s);
+      if (off > 1e-5 || dt > 1e-7)
+        throw std::runtime_error("turn " + std::to_string(k) +
+                                 " has unevenly spaced samples: a LaserScan cannot hold it");
+      m.ranges.push_back(s[i].range_m > 0 ? s[i].range_m : std::numeric_limits<float>::infinity());
+      m.intensities.push_back(static_cast<float>(s[i].quality));
+    }
+    m.range_min = lo;
+    m.range_max = hi;
+    scans.push_back(std::move(m));
+  }
+  for (const JointState& j : log.joints) {
+    JointMsg m;
+    m.stamp_ns = epoch + to_ns(j.t_s);
+    m.names = log.joint_names;
+    for (int k = 0; k < j.q.size(); ++k) m.position.push_back(j.q[k]);
+    joints.push_back(std::move(m));
+  }
+}
+
+// --- ROS 1 ---
+
+ros::Time ros_time(int64_t ns) {
+  ros::Time t;
+  t.fromNSec(static_cast<uint64_t>(ns));
+  return t;
+}
+
+// --- CDR (ROS 2's serialization): little- or big-endian, alignment from the end of the 4-byte header ---
+
+class CdrReader {
+ public:
+  CdrReader(const uint8_t* data, size_t size, const std::string& file) : p_(data), n_(size), file_(file) {
+    if (n_ < 4 || p_[0] != 0 || p_[1] > 1) throw input_error(file_, "a message that is not CDR");
+    little_ = p_[1] == 1;
+    pos_ = 4;
+  }
+  template <typename T>
+  T get() {
+    align(sizeof(T));
+    need(sizeof(T));
+    uint8_t b[sizeof(T)];
+    std::memcpy(b, p_ + pos_, sizeof(T));
+    if (!little_) std::reverse(b, b + sizeof(T));
+    T v;
+    std::memcpy(&v, b, sizeof(T));
+    pos_ += sizeof(T);
+    return v;
+  }
+  std::string str() {
+    const uint32_t len = get<uint32_t>();
+    need(len);
+    std::string s(reinterpret_cast<const char*>(p_ + pos_), len > 0 ? len - 1 : 0);
+    pos_ += len;
+    return s;
+  }
+  template <typename T>
+  std::vector<T> seq() {
+    const uint32_t count = get<uint32_t>();
+    if (count > n_) throw input_error(file_, "a CDR sequence longer than its message");
+    std::vector<T> v(count);
+    for (T& x : v) x = get<T>();
+    return v;
+  }
+
+ private:
+  void align(size_t a) { pos_ = 4 + (pos_ - 4 + a - 1) / a * a; }
+  void need(size_t k) {
+    if (pos_ + k > n_) throw input_error(file_, "a truncated CDR message");
+  }
+  const uint8_t* p_;
+  size_t n_, pos_ = 4;
+  std::string file_;
+  bool little_ = true;
+};
+
+class CdrWriter {
+ public:
+  CdrWriter() : b_{0, 1, 0, 0} {}  // CDR, little-endian
+  template <typename T>
+  void put(T v) {
+    while ((b_.size() - 4) % sizeof(T) != 0) b_.push_back(0);
+    const auto* p = reinterpret_cast<const uint8_t*>(&v);
+    b_.insert(b_.end(), p, p + sizeof(T));
+  }
+  void str(const std::string& s) {
+    put<uint32_t>(static_cast<uint32_t>(s.size() + 1));
+    b_.insert(b_.end(), s.begin(), s.end());
+    b_.push_back(0);
+  }
+  template <typename T>
+  void seq(const std::vector<T>& v) {
+    put<uint32_t>(static_cast<uint32_t>(v.size()));
+    for (const T& x : v) put<T>(x);
+  }
+  const std::vector<uint8_t>& bytes() const { return b_; }
+
+ private:
+  std::vector<uint8_t> b_;
+};
+
+int64_t cdr_stamp(CdrReader& r) {
+  const int32_t sec = r.get<int32_t>();
+  const uint32_t nsec = r.get<uint32_t>();
+  r.str();  // frame_id
+  return static_cast<int64_t>(sec) * 1000000000 + nsec;
+}
+
+void cdr_header(CdrWriter& w, int64_t ns, const std::string& frame) {
+  w.put<int32_t>(static_cast<int32_t>(ns / 1000000000));
+  w.put<uint32_t>(static_cast<uint32_t>(ns % 1000000000));
+  w.str(frame);
+}
+
+// --- sqlite ---
+
+struct Db {
+  sqlite3* db = nullptr;
+  ~Db() {
+    if (db) sqlite3_close(db);
+  }
+};
+
+struct Stmt {
+  sqlite3_stmt* s = nullptr;
+  ~Stmt() {
+    if (s) sqlite3_finalize(s);
+  }
+};
+
+void exec(sqlite3* db, const std::string& sql) {
+  char* err = nullptr;
+  if (sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &err) != SQLITE_OK) {
+    const std::string what = err ? err : "?";
+    sqlite3_free(err);
+    throw std::runtime_error("sqlite: " + what);
+  }
+}
+
+std::string find_db3(const std::string& path) {
+  namespace fs = std::filesystem;
+  if (!fs::is_directory(path)) return path;
+  std::vector<std::string> files;
+  for (const auto& e : fs::directory_iterator(path))
+    if (e.path().extension() == ".db3") files.push_back(e.path().string());
+  if (files.empty())
+    throw input_error(path, "a ROS 2 bag directory without a .db3 file (only sqlite3 storage is read)");
+  if (files.size() > 1) throw input_error(path, "a ROS 2 bag split into several .db3 files (not read yet)");
+  return files.front();
+}
+
+}  // namespace
+
+ScanLog read_ros1_bag(const std::string& path, const RobotModel& robot, const BagTopics& topics) {
+  if (!std::filesystem::exists(path)) throw input_error(path, "no such file");
+  std::vector<ScanMsg> scans;
+  std::vector<JointMsg> joints;
+  std::string scan_topic = topics.scan, joint_topic = topics.joints;
+  try {
+    rosbag::Bag bag(path, rosbag::bagmode::Read);
+    rosbag::View view(bag);
+    for (const rosbag::MessageInstance& m : view) {
+      const std::string& type = m.getDataType();
+      if (type == "sensor_msgs/LaserScan" && (scan_topic.empty() || scan_topic == m.getTopic())) {
+        scan_topic = m.getTopic();
+        const auto s = m.instantiate<sensor_msgs::LaserScan>();
+        if (!s) continue;
+        ScanMsg x;
+        x.stamp_ns = static_cast<int64_t>(s->header.stamp.toNSec());
+        x.angle_min = s->angle_min;
+        x.angle_increment = s->angle_increment;
+        x.time_increment = s->time_increment;
+        x.range_min = s->range_min;
+        x.range_max = s->range_max;
+        x.ranges = s->ranges;
+        x.intensities = s->intensities;
+        scans.push_back(std::move(x));
+      } else if (type == "sensor_msgs/JointState" && (joint_topic.empty() || joint_topic == m.getTopic())) {
+        joint_topic = m.getTopic();
+        const auto j = m.instantiate<sensor_msgs::JointState>();
+        if (!j) continue;
+        JointMsg x;
+        x.stamp_ns = static_cast<int64_t>(j->header.stamp.toNSec());
+        x.names = j->name;
+        x.position = j->position;
+        joints.push_back(std::move(x));
+      }
+    }
+  } catch (const rosbag::BagException& e) {
+    throw input_error(path, std::string("not a readable ROS 1 bag: ") + e.what());
+  } catch (const ros::Exception& e) {
+    throw input_error(path, std::string("a message that cannot be read: ") + e.what());
+  }
+  return to_scan_log(std::move(scans), std::move(joints), robot, "rosbag1", path);
+}
+
+void write_ros1_bag(const std::string& path, const ScanLog& log, double epoch_s) {
+  std::vector<ScanMsg> scans;
+  std::vector<JointMsg> joints;
+  from_scan_log(log, epoch_s, scans, joints);
+  rosbag::Bag bag(path, rosbag::bagmode::Write);
+  for (const ScanMsg& m : scans) {
+    sensor_msgs::LaserScan s;
+    s.header.stamp = ros_time(m.stamp_ns);
+    s.header.frame_id = log.lidar_frame;
+    s.angle_min = m.angle_min;
+    s.angle_increment = m.angle_increment;
+    s.angle_max = m.angle_min + m.angle_increment * static_cast<float>(m.ranges.size() - 1);
+    s.time_increment = m.time_increment;
+    s.scan_time = m.time_increment * static_cast<float>(m.ranges.size());
+    s.range_min = m.range_min;
+    s.range_max = m.range_max;
+    s.ranges = m.ranges;
+    s.intensities = m.intensities;
+    bag.write("/scan", s.header.stamp, s);
+  }
+  for (const JointMsg& m : joints) {
+    sensor_msgs::JointState j;
+    j.header.stamp = ros_time(m.stamp_ns);
+    j.name = m.names;
+    j.position = m.position;
+    bag.write("/joint_states", j.header.stamp, j);
+  }
+}
+
+ScanLog read_ros2_bag(const std::string& path, const RobotModel& robot, const BagTopics& topics) {
+  if (!std::filesystem::exists(path)) throw input_error(path, "no such file or directory");
+  const std::string file = find_db3(path);
+  Db db;
+  if (sqlite3_open_v2(file.c_str(), &db.db, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK)
+    throw input_error(file, "cannot be opened as sqlite3");
+  // Topics of the two types.
+  int scan_id = -1, joint_id = -1;
+  {
+    Stmt st;
+    if (sqlite3_prepare_v2(db.db, "SELECT id, name, type, serialization_format FROM topics", -1, &st.s,
+                           nullptr) != SQLITE_OK)
+      throw input_error(file, "not a ROS 2 bag (no topics table)");
+    while (sqlite3_step(st.s) == SQLITE_ROW) {
+      const int id = sqlite3_column_int(st.s, 0);
+      const std::string name = reinterpret_cast<const char*>(sqlite3_column_text(st.s, 1));
+      const std::string type = reinterpret_cast<const char*>(sqlite3_column_text(st.s, 2));
+      const std::string format = reinterpret_cast<const char*>(sqlite3_column_text(st.s, 3));
+      if (format != "cdr") continue;
+      if (type == "sensor_msgs/msg/LaserScan" && scan_id < 0 && (topics.scan.empty() || topics.scan == name))
+        scan_id = id;
+      if (type == "sensor_msgs/msg/JointState" && joint_id < 0 &&
+          (topics.joints.empty() || topics.joints == name))
+        joint_id = id;
+    }
+  }
+  std::vector<ScanMsg> scans;
+  std::vector<JointMsg> joints;
+  Stmt st;
+  if (sqlite3_prepare_v2(db.db, "SELECT topic_id, data FROM messages ORDER BY timestamp", -1, &st.s,
+                         nullptr) != SQLITE_OK)
+    throw input_error(file, "not a ROS 2 bag (no messages table)");
+  while (sqlite3_step(st.s) == SQLITE_ROW) {
+    const int topic = sqlite3_column_int(st.s, 0);
+    if (topic != scan_id && topic != joint_id) continue;
+    const auto* data = static_cast<const uint8_t*>(sqlite3_column_blob(st.s, 1));
+    CdrReader r(data, static_cast<size_t>(sqlite3_column_bytes(st.s, 1)), file);
+    if (topic == scan_id) {
+      ScanMsg m;
+      m.stamp_ns = cdr_stamp(r);
+      m.angle_min = r.get<float>();
+      r.get<float>();  // angle_max
+      m.angle_increment = r.get<float>();
+      m.time_increment = r.get<float>();
+      r.get<float>();  // scan_time
+      m.range_min = r.get<float>();
+      m.range_max = r.get<float>();
+      m.ranges = r.seq<float>();
+      m.intensities = r.seq<float>();
+      scans.push_back(std::move(m));
+    } else {
+      JointMsg m;
+      m.stamp_ns = cdr_stamp(r);
+      const uint32_t names = r.get<uint32_t>();
+      if (names > 1000) throw input_error(file, "a JointState with " + std::to_string(names) + " names");
+      for (uint32_t k = 0; k < names; ++k) m.names.push_back(r.str());
+      m.position = r.seq<double>();
+      joints.push_back(std::move(m));
+    }
+  }
+  return to_scan_log(std::move(scans), std::move(joints), robot, "rosbag2", file);
+}
+
+void write_ros2_bag(const std::string& dir, const ScanLog& log, double epoch_s) {
+  namespace fs = std::filesystem;
+  std::vector<ScanMsg> scans;
+  std::vector<JointMsg> joints;
+  from_scan_log(log, epoch_s, scans, joints);
+  fs::create_directories(dir);
+  const std::string name = fs::path(dir).filename().string();
+  const std::string db3 = name + "_0.db3";
+  fs::remove(fs::path(dir) / db3);
+  Db db;
+  if (sqlite3_open((fs::path(dir) / db3).string().c_str(), &db.db) != SQLITE_OK)
+    throw std::runtime_error(dir + ": cannot create " + db3);
+  exec(db.db,
+       "CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT NOT NULL, type TEXT NOT NULL, "
+       "serialization_format TEXT NOT NULL, offered_qos_profiles TEXT NOT NULL);"
+       "CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER NOT NULL, timestamp INTEGER NOT NULL, "
+       "data BLOB NOT NULL);"
+       "CREATE INDEX timestamp_idx ON messages (timestamp ASC);"
+       "INSERT INTO topics VALUES (1, '/scan', 'sensor_msgs/msg/LaserScan', 'cdr', '');"
+       "INSERT INTO topics VALUES (2, '/joint_states', 'sensor_msgs/msg/JointState', 'cdr', '');"
+       "BEGIN;");
+  Stmt st;
+  sqlite3_prepare_v2(db.db, "INSERT INTO messages (topic_id, timestamp, data) VALUES (?, ?, ?)", -1, &st.s,
+                     nullptr);
+  auto insert = [&](int topic, int64_t ns, const std::vector<uint8_t>& data) {
+    sqlite3_bind_int(st.s, 1, topic);
+    sqlite3_bind_int64(st.s, 2, ns);
+    sqlite3_bind_blob(st.s, 3, data.data(), static_cast<int>(data.size()), SQLITE_TRANSIENT);
+    if (sqlite3_step(st.s) != SQLITE_DONE) throw std::runtime_error(dir + ": cannot write a message");
+    sqlite3_reset(st.s);
+  };
+  int64_t first = std::numeric_limits<int64_t>::max(), last = 0;
+  for (const ScanMsg& m : scans) {
+    CdrWriter w;
+    cdr_header(w, m.stamp_ns, log.lidar_frame);
+    w.put<float>(m.angle_min);
+    w.put<float>(m.angle_min + m.angle_increment * static_cast<float>(m.ranges.size() - 1));
+    w.put<float>(m.angle_increment);
+    w.put<float>(m.time_increment);
+    w.put<float>(m.time_increment * static_cast<float>(m.ranges.size()));
+    w.put<float>(m.range_min);
+    w.put<float>(m.range_max);
+    w.seq(m.ranges);
+    w.seq(m.intensities);
+    insert(1, m.stamp_ns, w.bytes());
+    first = std::min(first, m.stamp_ns), last = std::max(last, m.stamp_ns);
+  }
+  for (const JointMsg& m : joints) {
+    CdrWriter w;
+    cdr_header(w, m.stamp_ns, "");
+    w.put<uint32_t>(static_cast<uint32_t>(m.names.size()));
+    for (const std::string& n : m.names) w.str(n);
+    w.seq(m.position);
+    w.seq(std::vector<double>());  // velocity
+    w.seq(std::vector<double>());  // effort
+    insert(2, m.stamp_ns, w.bytes());
+    first = std::min(first, m.stamp_ns), last = std::max(last, m.stamp_ns);
+  }
+  exec(db.db, "COMMIT;");
+  const size_t count = scans.size() + joints.size();
+  std::ofstream meta(fs::path(dir) / "metadata.yaml");
+  meta << "rosbag2_bagfile_information:\n  version: 5\n  storage_identifier: sqlite3\n  duration:\n    "
+          "nanoseconds: "
+       << last - first << "\n  starting_time:\n    nanoseconds_since_epoch: " << first
+       << "\n  message_count: " << count << "\n  topics_with_message_count:\n"
+       << "    - topic_metadata:\n        name: /scan\n        type: sensor_msgs/msg/LaserScan\n"
+       << "        serialization_format: cdr\n        offered_qos_profiles: \"\"\n      message_count: "
+       << scans.size() << "\n"
+       << "    - topic_metadata:\n        name: /joint_states\n        type: sensor_msgs/msg/JointState\n"
+       << "        serialization_format: cdr\n        offered_qos_profiles: \"\"\n      message_count: "
+       << joints.size()
+       << "\n  compression_format: \"\"\n  compression_mode: \"\"\n  relative_file_paths:\n    - " << db3
+       << "\n  files:\n    - path: " << db3
+       << "\n      starting_time:\n        nanoseconds_since_epoch: " << first
+       << "\n      duration:\n        nanoseconds: " << last - first << "\n      message_count: " << count
+       << "\n";
+}
+
+}  // namespace weldtwin

@@ -1,0 +1,38 @@
+// Recorded sweeps from ROS: a ROS 1 bag (Debian's librosbag) or a ROS 2 bag (its sqlite3 storage, CDR
+// messages) holding sensor_msgs/LaserScan (one message per LiDAR turn, as the RPLIDAR drivers publish) and
+// sensor_msgs/JointState, turned into a ScanLog — and ScanLogs written as such bags (to record a twin sweep
+// the way a real cell would, and for the tests).
+//
+// Time alignment: both topics carry header stamps on one clock; the log's zero is the earliest of them, each
+// LiDAR sample's time is its scan's stamp plus its index times time_increment, and scan assembly interpolates
+// the joint states at every sample's own time.
+#pragma once
+
+#include <string>
+
+#include "core/robot_model.hpp"
+#include "core/scan_log.hpp"
+
+namespace weldtwin {
+
+/// Which topics to read ("" = the first of the right type).
+struct BagTopics {
+  std::string scan;
+  std::string joints;
+};
+
+/// Reads a ROS 1 bag. Joint states are reordered into the robot's joint order. Throws InputError naming the
+/// file for an unreadable bag, a missing topic, a joint the robot has not, or messages out of order.
+ScanLog read_ros1_bag(const std::string& path, const RobotModel& robot, const BagTopics& topics = {});
+
+/// Reads a ROS 2 bag: its directory (with one *.db3 file) or the .db3 file itself.
+ScanLog read_ros2_bag(const std::string& path, const RobotModel& robot, const BagTopics& topics = {});
+
+/// Writes `log` as a ROS 1 bag (/scan, /joint_states), stamps from `epoch_s` on. Every turn must have evenly
+/// spaced angles (a LaserScan holds a start and an increment). Throws std::runtime_error when it cannot.
+void write_ros1_bag(const std::string& path, const ScanLog& log, double epoch_s = 1.7e9);
+
+/// Writes `log` as a ROS 2 bag directory `dir` (metadata.yaml and `<name>_0.db3`).
+void write_ros2_bag(const std::string& dir, const ScanLog& log, double epoch_s = 1.7e9);
+
+}  // namespace weldtwin

@@ -1,0 +1,155 @@
+// The switch between simulated and recorded sweeps: a twin sweep recorded as a ScanLog, a ROS 1 bag and a ROS
+// 2 bag, read back through the log: source, localizes to the same pose as the live sim source (within 1e-6
+// m); the bags keep the samples' times against the joint states' (the alignment assembly interpolates by);
+// bad bags and unknown sources are refused with the file named.
+#include "hw/scan_source.hpp"
+
+#include <gtest/gtest.h>
+#include <sqlite3.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "core/error.hpp"
+#include "hw/ros_bags.hpp"
+#include "perception/localizer.hpp"
+#include "perception/mesh_io.hpp"
+#include "perception/scan_assembly.hpp"
+#include "tests/test_support.hpp"
+
+namespace weldtwin {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path temp_dir() {
+  const fs::path d = fs::temp_directory_path() / "weldtwin_scan_source_test";
+  fs::create_directories(d);
+  return d;
+}
+
+struct Recorded {
+  test::Cell cell{"scenes/cells/default.yaml", 4};
+  ScanLog live;
+  Iso3 live_pose = Iso3::Identity();
+  Mesh mesh;
+
+  Recorded() {
+    const SweepProgram program = SweepProgram::load(cell.spec.sweep_program, cell.robot);
+    SimScanInputs sim;
+    sim.world = cell.world.get();
+    sim.robot = &cell.robot;
+    sim.program = &program;
+    sim.lidar.seed = 4;
+    const auto source = make_scan_source("sim", cell.robot, sim);
+    live = source->acquire();
+    EXPECT_EQ(source->labels().size(), live.samples.size()) << "the twin knows what every sample saw";
+    mesh = load_mesh(cell.part.mesh_path);
+    live_pose = localize_log(live);
+  }
+
+  Iso3 localize_log(const ScanLog& log) const {
+    LocalizeSetting setting;
+    setting.threads = 1;
+    const PoseEstimate p =
+        localize(assemble_scan(log, cell.robot).points_base, mesh, setting, cell.part.seam_points(0.001));
+    EXPECT_TRUE(p.found) << p.reason;
+    return p.T_base_part;
+  }
+};
+
+const Recorded& recorded() {
+  static const Recorded r;
+  return r;
+}
+
+TEST(ScanSource, EveryLogFormatLocalizesToTheLiveSimPose) {
+  const Recorded& r = recorded();
+  const fs::path d = temp_dir();
+  r.live.write((d / "sweep.scanlog").string());
+  write_ros1_bag((d / "sweep.bag").string(), r.live);
+  fs::remove_all(d / "sweep_ros2");
+  write_ros2_bag((d / "sweep_ros2").string(), r.live);
+  ASSERT_TRUE(fs::exists(d / "sweep_ros2" / "metadata.yaml"));
+  const std::pair<std::string, std::string> logs[] = {{"sweep.scanlog", "sim"},
+                                                      {"sweep.bag", "rosbag1"},
+                                                      {"sweep_ros2", "rosbag2"},
+                                                      {"sweep_ros2/sweep_ros2_0.db3", "rosbag2"}};
+  for (const auto& [name, kind] : logs) {
+    SCOPED_TRACE(name);
+    const auto source = make_scan_source("log:" + (d / name).string(), r.cell.robot, SimScanInputs());
+    const ScanLog log = source->acquire();
+    EXPECT_EQ(log.source, kind);
+    ASSERT_EQ(log.samples.size(), r.live.samples.size());
+    ASSERT_EQ(log.joints.size(), r.live.joints.size());
+    // The alignment: every sample keeps its time against the joint states (the zero may move).
+    const double shift = log.joints.front().t_s - r.live.joints.front().t_s;
+    for (size_t i = 0; i < log.samples.size(); i += 997) {
+      // Bit for bit: the A2's 125 us increment is whole nanoseconds, a full turn's angle step is 2 pi / n.
+      EXPECT_NEAR(log.samples[i].t_s - r.live.samples[i].t_s, shift, 1e-12) << i;
+      EXPECT_EQ(log.samples[i].angle_rad, r.live.samples[i].angle_rad) << i;
+      EXPECT_EQ(log.samples[i].range_m, r.live.samples[i].range_m) << i;
+      EXPECT_EQ(log.samples[i].quality, r.live.samples[i].quality) << i;
+    }
+    const Iso3 pose = r.localize_log(log);
+    EXPECT_LT((pose.translation() - r.live_pose.translation()).norm(), 1e-6);
+    EXPECT_LT(Eigen::AngleAxisd(pose.linear().transpose() * r.live_pose.linear()).angle(), 1e-6);
+  }
+}
+
+TEST(ScanSource, JointStatesAreReorderedByNameAndTheirTimesKept) {
+  // A bag whose joint states list the joints in another order and start before the first scan.
+  const Recorded& r = recorded();
+  ScanLog log = r.live;
+  log.joint_names = {log.joint_names[5], log.joint_names[4], log.joint_names[3],
+                     log.joint_names[2], log.joint_names[1], log.joint_names[0]};
+  for (JointState& s : log.joints) s.q = s.q.reverse().eval();
+  const fs::path bag = temp_dir() / "reordered.bag";
+  write_ros1_bag(bag.string(), log);
+  const ScanLog back = read_ros1_bag(bag.string(), r.cell.robot);
+  ASSERT_EQ(back.joints.size(), r.live.joints.size());
+  for (size_t k = 0; k < back.joints.size(); k += 101)
+    EXPECT_LT((back.joints[k].q - r.live.joints[k].q).cwiseAbs().maxCoeff(), 1e-12) << k;
+  EXPECT_EQ(back.joint_names, r.cell.robot.joint_names());
+}
+
+TEST(ScanSource, BadInputIsRefusedNamingTheFile) {
+  const Recorded& r = recorded();
+  const fs::path d = temp_dir();
+  auto refused = [&](const std::string& spec, const std::string& words) {
+    try {
+      make_scan_source(spec, r.cell.robot, SimScanInputs())->acquire();
+      ADD_FAILURE() << spec << " was accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+  };
+  std::ofstream(d / "garbage.bag") << "#ROSBAG V2.0\nnot a bag at all";
+  refused("log:" + (d / "garbage.bag").string(), "garbage.bag");
+  std::ofstream(d / "text.txt") << "hello";
+  refused("log:" + (d / "text.txt").string(), "not a recorded sweep");
+  refused("log:" + (d / "missing.bag").string(), "no such file");
+  fs::create_directories(d / "empty_ros2");
+  refused("log:" + (d / "empty_ros2").string(), "without a .db3");
+  refused("lidar:/dev/ttyUSB9", "not built yet");
+  refused("camera", "not sim, log:FILE or lidar:DEV");
+  // A bag without joint states.
+  ScanLog no_joints = r.live;
+  no_joints.joints.clear();
+  write_ros1_bag((d / "scans_only.bag").string(), no_joints);
+  refused("log:" + (d / "scans_only.bag").string(), "no sensor_msgs/JointState");
+  // A ROS 2 bag whose messages are cut short.
+  fs::remove_all(d / "cut");
+  write_ros2_bag((d / "cut").string(), r.live);
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open((d / "cut" / "cut_0.db3").string().c_str(), &db), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db, "UPDATE messages SET data = substr(data, 1, 40)", nullptr, nullptr, nullptr),
+              SQLITE_OK);
+    sqlite3_close(db);
+  }
+  refused("log:" + (d / "cut").string(), "truncated CDR");
+}
+
+}  // namespace
+}  // namespace weldtwin
