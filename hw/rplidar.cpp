@@ -85,12 +85,12 @@ std::vector<uint8_t> encode_capsule(double start_angle_deg, bool new_turn, const
   return c;
 }
 
-void NodeDecoder::feed(const uint8_t* data, size_t n) {
-  if (pos_ > 4096) {
-    buf_.erase(buf_.begin(), buf_.begin() + static_cast<std::ptrdiff_t>(pos_));
-    pos_ = 0;
+void StreamBuffer::feed(const uint8_t* data, size_t n) {
+  if (pos > 4096) {
+    bytes.erase(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(pos));
+    pos = 0;
   }
-  buf_.insert(buf_.end(), data, data + n);
+  bytes.insert(bytes.end(), data, data + n);
 }
 
 namespace {
@@ -120,44 +120,36 @@ bool follows(const RplidarNode& a, const RplidarNode& b) {
 bool NodeDecoder::next(RplidarNode& node) {
   // The checks pass for one window in six of random bytes, so a stream is taken as found only where three
   // nodes in a row pass them and follow each other; after that, a node that fails either test loses the lock.
-  while (buf_.size() - pos_ >= 5) {
-    const uint8_t* b = &buf_[pos_];
+  while (in_.available() >= 5) {
+    const uint8_t* b = in_.here();
     if (locked_) {
       RplidarNode n;
       if (node_at(b, n) && follows(last_, n)) {
         node = last_ = n;
-        pos_ += 5;
+        in_.pos += 5;
         return true;
       }
       locked_ = false;
     }
-    if (buf_.size() - pos_ < 15) return false;  // wait for three nodes' worth
+    if (in_.available() < 15) return false;  // wait for three nodes' worth
     RplidarNode n0, n1, n2;
     if (node_at(b, n0) && node_at(b + 5, n1) && node_at(b + 10, n2) && follows(n0, n1) && follows(n1, n2)) {
       locked_ = true;
       node = last_ = n0;
-      pos_ += 5;
+      in_.pos += 5;
       return true;
     }
-    ++pos_;
+    ++in_.pos;
     ++skipped_;
   }
   return false;
 }
 
-void CapsuleDecoder::feed(const uint8_t* data, size_t n) {
-  if (pos_ > 4096) {
-    buf_.erase(buf_.begin(), buf_.begin() + static_cast<std::ptrdiff_t>(pos_));
-    pos_ = 0;
-  }
-  buf_.insert(buf_.end(), data, data + n);
-}
-
 bool CapsuleDecoder::parse(Capsule& c) {
-  while (buf_.size() - pos_ >= 84) {
-    const uint8_t* b = &buf_[pos_];
+  while (in_.available() >= 84) {
+    const uint8_t* b = in_.here();
     if ((b[0] >> 4) != 0xA || (b[1] >> 4) != 0x5) {
-      ++pos_;
+      ++in_.pos;
       ++skipped_;
       continue;
     }
@@ -167,7 +159,7 @@ bool CapsuleDecoder::parse(Capsule& c) {
       // A corrupted capsule (or a false sync): its samples are lost, and the one before it cannot be
       // placed (its angles need this one's start); look for the next sync.
       ++bad_;
-      ++pos_;
+      ++in_.pos;
       ++skipped_;
       have_previous_ = false;
       continue;
@@ -184,7 +176,7 @@ bool CapsuleDecoder::parse(Capsule& c) {
         c.compensation_deg[2 * k + h] = comp / 8.0;
       }
     }
-    pos_ += 84;
+    in_.pos += 84;
     return true;
   }
   return false;

@@ -41,17 +41,26 @@ std::vector<uint8_t> encode_node(const RplidarNode& n);
 std::vector<uint8_t> encode_capsule(double start_angle_deg, bool new_turn, const double (&distance_mm)[32],
                                     const double (&compensation_deg)[32]);
 
+/// Bytes as they arrive, consumed from the front (kept compact).
+struct StreamBuffer {
+  std::vector<uint8_t> bytes;
+  size_t pos = 0;
+  void feed(const uint8_t* data, size_t n);
+  size_t available() const { return bytes.size() - pos; }
+  const uint8_t* here() const { return bytes.data() + pos; }
+};
+
 /// SCAN-mode stream decoder.
 class NodeDecoder {
  public:
-  void feed(const uint8_t* data, size_t n);
+  void feed(const uint8_t* data, size_t n) { in_.feed(data, n); }
   /// The next whole, valid node; false when more bytes are needed.
   bool next(RplidarNode& node);
   size_t skipped_bytes() const { return skipped_; }
 
  private:
-  std::vector<uint8_t> buf_;
-  size_t pos_ = 0, skipped_ = 0;
+  StreamBuffer in_;
+  size_t skipped_ = 0;
   bool locked_ = false;
   RplidarNode last_;
 };
@@ -59,7 +68,7 @@ class NodeDecoder {
 /// EXPRESS_SCAN stream decoder.
 class CapsuleDecoder {
  public:
-  void feed(const uint8_t* data, size_t n);
+  void feed(const uint8_t* data, size_t n) { in_.feed(data, n); }
   bool next(RplidarNode& node);
   size_t bad_capsules() const { return bad_; }
   size_t skipped_bytes() const { return skipped_; }
@@ -71,8 +80,8 @@ class CapsuleDecoder {
     double distance_mm[32] = {}, compensation_deg[32] = {};
   };
   bool parse(Capsule& c);
-  std::vector<uint8_t> buf_;
-  size_t pos_ = 0, skipped_ = 0, bad_ = 0;
+  StreamBuffer in_;
+  size_t skipped_ = 0, bad_ = 0;
   bool have_previous_ = false;
   Capsule previous_;
   std::vector<RplidarNode> ready_;
