@@ -332,6 +332,23 @@ int run_bench(const BenchCommand& cmd_in) {
   for (int i = cmd.shard; i < cmd.trials; i += cmd.shards) indices.push_back(static_cast<uint64_t>(i));
   const std::filesystem::path out_path(cmd.out);
   if (out_path.has_parent_path()) std::filesystem::create_directories(out_path.parent_path());
+  // --resume: the finished lines of an earlier run of the same benchmark are kept (a cut-off last line is
+  // not).
+  std::map<uint64_t, std::string> earlier;
+  if (cmd.resume && std::filesystem::exists(cmd.out)) {
+    std::ifstream in(cmd.out);
+    for (std::string text; std::getline(in, text);) {
+      json j;
+      try {
+        j = json::parse(text);
+      } catch (const std::exception&) {
+        continue;  // the line a stopped run was writing
+      }
+      if (j.value("seed", cmd.seed + 1) != cmd.seed)
+        throw input_error(cmd.out, "holds trials of another seed: not this benchmark's to resume");
+      if (j.contains("index")) earlier[j["index"].get<uint64_t>()] = text;
+    }
+  }
   std::ofstream out(cmd.out, std::ios::trunc);
   if (!out) throw InputError(cmd.out + ": cannot be written");
 
@@ -347,6 +364,19 @@ int run_bench(const BenchCommand& cmd_in) {
   std::vector<bool> done(indices.size(), false);
   size_t next = 0, written = 0, finished = 0, passed = 0, ours_ok = 0;
   std::vector<Child> running;
+  size_t resumed = 0;
+  for (size_t slot = 0; slot < indices.size(); ++slot) {
+    const auto it = earlier.find(indices[slot]);
+    if (it == earlier.end()) continue;
+    lines[slot] = it->second;
+    done[slot] = true;
+    ++resumed;
+  }
+  finished = resumed;
+  while (written < lines.size() && done[written]) out << lines[written++] << '\n';
+  out.flush();
+  if (resumed > 0 && !cmd.quiet)
+    std::fprintf(stderr, "bench: %zu trials kept from %s\n", resumed, cmd.out.c_str());
   const auto t_start = Clock::now();
   std::fflush(nullptr);  // children inherit no half-written buffers
 
@@ -365,7 +395,7 @@ int run_bench(const BenchCommand& cmd_in) {
     if (cmd.quiet) return;
     const double elapsed = std::chrono::duration<double>(Clock::now() - t_start).count();
     const double eta =
-        elapsed / static_cast<double>(finished) * static_cast<double>(indices.size() - finished);
+        elapsed / static_cast<double>(finished - resumed) * static_cast<double>(indices.size() - finished);
     if (tty) {
       const int width = 30, filled = static_cast<int>(width * finished / indices.size());
       std::fprintf(stderr, "\rbench [%s%s] %zu/%zu  ours within 1 mm %zu, welded %zu  %s, ETA %s   ",
@@ -384,6 +414,7 @@ int run_bench(const BenchCommand& cmd_in) {
   while (finished < indices.size()) {
     while (next < indices.size() && static_cast<int>(running.size()) < cmd.jobs) {
       const size_t slot = next++;
+      if (done[slot]) continue;  // kept from an earlier run
       Child child;
       child.slot = slot;
       child.start = Clock::now();

@@ -29,7 +29,8 @@ struct BenchCommand {
   double mount_error_rad = 0.0;    ///< and rotation sigma per axis [rad]
   double encoder_noise_rad = 0.0;  ///< joint encoder noise (sigma) on the recorded joint states [rad]
   bool quiet = false;
-  std::string keep_failed;          ///< DIR: a failed trial's scan, poses and plan go to DIR/trial-INDEX/
+  bool resume = false;      ///< keep the finished lines already in `out` (a stopped run) and run the rest
+  std::string keep_failed;  ///< DIR: a failed trial's scan, poses and plan go to DIR/trial-INDEX/
   std::vector<std::string> faults;  ///< for tests: "INDEX:crash|hang|throw" makes that trial misbehave
 };
 

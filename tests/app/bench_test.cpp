@@ -84,6 +84,22 @@ TEST(Bench, ShardsMergedEqualTheUnshardedRun) {
   a.erase("seconds");
   b.erase("seconds");
   EXPECT_EQ(a, b);
+  // A stopped run resumed: its finished lines kept (the cut-off one dropped), the rest run, the same lines.
+  {
+    const std::string all_text = [&] {
+      std::ifstream in(d / "all.jsonl");
+      return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    }();
+    const size_t two = all_text.find('\n', all_text.find('\n') + 1) + 1;
+    std::ofstream(d / "stopped.jsonl")
+        << all_text.substr(0, two) << all_text.substr(two, 50);  // 2 lines and a bit
+    ASSERT_EQ(weldtwin(common + "--jobs 2 --resume --out " + (d / "stopped.jsonl").string(), d / "err"), 0)
+        << slurp(d / "err");
+    EXPECT_EQ(lines(d / "stopped.jsonl", true), all);
+    const std::vector<json> kept = lines(d / "stopped.jsonl", false), before = lines(d / "all.jsonl", false);
+    EXPECT_EQ(kept[0]["seconds"], before[0]["seconds"]) << "kept, not run again";
+    EXPECT_EQ(kept[1]["seconds"], before[1]["seconds"]);
+  }
   // Another seed draws other cells.
   ASSERT_EQ(
       weldtwin("bench --trials 1 --seed 12 --no-paper --no-replay -q --out " + (d / "other.jsonl").string(),
