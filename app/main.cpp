@@ -5,6 +5,7 @@
 #include <exception>
 
 #include "app/bench_command.hpp"
+#include "app/calibrate_command.hpp"
 #include "app/localize_command.hpp"
 #include "app/plan_command.hpp"
 #include "app/run_command.hpp"
@@ -167,6 +168,27 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   br->add_option("--out", bench_report.out, "output directory (default: out/bench)");
 
+  weldtwin::CalibrateCommand cal;
+  uint64_t cal_seed = 0;
+  CLI::App* cc = app.add_subcommand(
+      "calibrate",
+      "Find the LiDAR's mount on link 5 from a sweep of the calibration cell (the bare table and a known "
+      "box) "
+      "and write the correction to the URDF's mount; exit 0 calibrated, 3 untrustworthy fit");
+  cc->add_option("cell", cal.cell, "calibration cell (default: scenes/cells/calibration.yaml)")
+      ->check(CLI::ExistingFile);
+  cc->add_option("--source", cal.source,
+                 "sim (the twin) or log:FILE (a recorded sweep of the calibration cell)")
+      ->capture_default_str();
+  CLI::Option* cal_seed_opt = cc->add_option("--seed", cal_seed, "LiDAR noise seed of the twin's sweep");
+  cc->add_option("--mount-error-mm", cal.mount_error_mm,
+                 "twin only: sweep through a mount off by X Y Z mm (to check the calibration)")
+      ->expected(3);
+  cc->add_option("--mount-error-deg", cal.mount_error_deg, "twin only: and by roll pitch yaw deg")
+      ->expected(3);
+  cc->add_option("--out", cal.out, "mount JSON to write")->required();
+  cc->add_flag("-q,--quiet", cal.quiet, "no progress line");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -191,6 +213,10 @@ int main(int argc, char** argv) {
       return weldtwin::run_bench(bench);
     }
     if (br->parsed()) return weldtwin::run_bench_report(bench_report);
+    if (cc->parsed()) {
+      if (*cal_seed_opt) cal.seed = cal_seed;
+      return weldtwin::run_calibrate(cal);
+    }
     if (rp->parsed()) {
       if (*replay_seed_opt) replay.seed = replay_seed;
       replay.renders = !replay_no_renders;

@@ -196,8 +196,21 @@ def tube_tee():
                "table; fillet seams of the joint (the bottom one faces the table).")
 
 
+def cal_box():
+    """The calibration target: a plain 250 x 150 x 100 mm box (its one 'seam', a bottom edge, is never welded)."""
+    sx, sy, sz = 0.25, 0.15, 0.10
+    tris = box(-sx / 2, -sy / 2, 0.0, sx / 2, sy / 2, sz)
+    write_stl(os.path.join(OUT, "cal_box.stl"), tris, "weldtwin cal_box")
+    seams = [{"name": "front_edge", "start": (-sx / 2, -sy / 2, 0.0), "end": (sx / 2, -sy / 2, 0.0),
+              "normal": (0, 0, 1), "wall_normal": (0, -1, 0)}]
+    fp = [(-sx / 2, -sy / 2), (sx / 2, -sy / 2), (sx / 2, sy / 2), (-sx / 2, sy / 2)]
+    write_spec("cal_box", seams, [], fp, sz,
+               "250 x 150 x 100 mm box: the known object of the LiDAR mount calibration (weldtwin calibrate).")
+
+
 if __name__ == "__main__":
     os.makedirs(OUT, exist_ok=True)
     tube_on_plate()
     round_on_plate()
     tube_tee()
+    cal_box()

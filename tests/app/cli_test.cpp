@@ -197,5 +197,23 @@ TEST(Cli, RunFromRecordedBagsMatchesTheLiveRun) {
                    "nothing.bag");
 }
 
+// `weldtwin calibrate` in the twin: a mount put wrong is found again and said so; a cell without the box is
+// refused.
+TEST(Cli, CalibrateFindsAWrongMountInTheTwin) {
+  const std::string out = temp_file("mount.json", "");
+  const CliRun r =
+      weldtwin("calibrate -q --mount-error-mm -1 2 0.5 --mount-error-deg 0.3 0.2 -0.4 --out " + out);
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream in(out);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t at = text.find("\"translation_error_mm\"");
+  ASSERT_NE(at, std::string::npos) << text;
+  EXPECT_LT(std::stod(text.substr(text.find(':', at) + 1)), 0.5);
+  const size_t rot = text.find("\"rotation_error_deg\"");
+  EXPECT_LT(std::stod(text.substr(text.find(':', rot) + 1)), 0.1);
+  expect_bad_input(weldtwin("calibrate " + test::repo("scenes/cells/default.yaml") + " -q --out " + out),
+                   "no box top");
+}
+
 }  // namespace
 }  // namespace weldtwin

@@ -1,0 +1,112 @@
+#include "app/calibrate_command.hpp"
+
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "core/cell_spec.hpp"
+#include "core/error.hpp"
+#include "hw/scan_source.hpp"
+#include "perception/mesh_io.hpp"
+#include "perception/mount_calibration.hpp"
+#include "sim/cell_layout.hpp"
+
+namespace weldtwin {
+namespace {
+
+Iso3 from_xyz_rpy(const std::vector<double>& mm, const std::vector<double>& deg) {
+  Iso3 d = Iso3::Identity();
+  if (!mm.empty()) d.translate(1e-3 * Vec3(mm[0], mm[1], mm[2]));
+  if (!deg.empty())
+    d.rotate(Eigen::AngleAxisd(deg2rad(deg[2]), Vec3::UnitZ()) *
+             Eigen::AngleAxisd(deg2rad(deg[1]), Vec3::UnitY()) *
+             Eigen::AngleAxisd(deg2rad(deg[0]), Vec3::UnitX()));
+  return d;
+}
+
+// Roll, pitch, yaw [deg] of R = Rz(yaw) Ry(pitch) Rx(roll), as URDF's rpy.
+Vec3 rpy_deg(const Mat3& R) {
+  const Vec3 ypr = R.eulerAngles(2, 1, 0);
+  Vec3 rpy(ypr[2], ypr[1], ypr[0]);
+  // eulerAngles keeps the first angle in [0, pi]: fold to the small-angle branch.
+  if (std::abs(rpy[0]) > kPi / 2)
+    rpy = Vec3(rpy[0] - kPi * (rpy[0] > 0 ? 1 : -1), kPi - rpy[1], rpy[2] - kPi);
+  for (int i = 0; i < 3; ++i) rpy[i] = std::remainder(rpy[i], 2 * kPi);
+  return rpy * 180.0 / kPi;
+}
+
+}  // namespace
+
+int run_calibrate(const CalibrateCommand& cmd) {
+  if (cmd.out.empty()) throw InputError("calibrate: --out (the mount JSON to write) is needed");
+  for (const auto* v : {&cmd.mount_error_mm, &cmd.mount_error_deg})
+    if (!v->empty() && v->size() != 3)
+      throw InputError("--mount-error-mm / --mount-error-deg take three numbers");
+  const bool twin_error = !cmd.mount_error_mm.empty() || !cmd.mount_error_deg.empty();
+  if (twin_error && cmd.source != "sim")
+    throw InputError("--mount-error-* is for the twin's sweep (--source sim) only");
+  const CellSpec cell = CellSpec::load(
+      cmd.cell.empty() ? std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/calibration.yaml" : cmd.cell);
+  const PartSpec part = PartSpec::load(cell.part_spec);
+  const RobotModel robot = RobotModel::load(cell.robot_urdf);
+  const Mesh box = load_mesh(part.mesh_path);
+  MountCalibrationSetting setting;
+  {
+    Vec3 lo = Vec3::Constant(1e9), hi = Vec3::Constant(-1e9);
+    for (const Vec3& v : box.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+    setting.box_size_m = hi - lo;
+  }
+  const CellLayout layout = make_layout(cell, part, {});
+  const Iso3 error = from_xyz_rpy(cmd.mount_error_mm, cmd.mount_error_deg);
+  const std::string lidar_link = SweepOptions().lidar_link;
+  const RobotModel real = twin_error ? robot.with_mount_offset(lidar_link, error) : robot;
+  const MujocoWorld world(cell, part, real, layout);
+  const SweepProgram program = SweepProgram::load(cell.sweep_program, real);
+  SimScanInputs sim;
+  sim.world = &world;
+  sim.robot = &real;
+  sim.program = &program;
+  sim.lidar.apply(cell.lidar_overrides, cell.source);
+  if (cmd.seed) sim.lidar.seed = *cmd.seed;
+  const auto source = make_scan_source(cmd.source, robot, sim);
+  if (!cmd.quiet)
+    std::fprintf(stderr, "calibrate: sweeping the calibration cell: %s\n", source->describe().c_str());
+  const ScanLog log = source->acquire();
+  const MountCalibration cal = calibrate_mount(log, robot, setting, cmd.source);
+
+  const Vec3 t = cal.delta.translation(), r = rpy_deg(cal.delta.linear());
+  nlohmann::json j;
+  j["lidar_link"] = log.lidar_frame;
+  j["correction"] = {{"xyz_m", {t.x(), t.y(), t.z()}}, {"rpy_deg", {r.x(), r.y(), r.z()}}};
+  j["note"] = "the LiDAR link's URDF origin, right-multiplied by this correction, is the calibrated mount";
+  j["box"] = {{"x_m", cal.T_base_box.translation().x()},
+              {"y_m", cal.T_base_box.translation().y()},
+              {"yaw_deg", rad2deg(std::atan2(cal.T_base_box.linear()(1, 0), cal.T_base_box.linear()(0, 0)))}};
+  j["rms_mm"] = 1e3 * cal.rms_m;
+  j["table_points"] = cal.table_points;
+  j["box_points"] = cal.box_points;
+  j["converged"] = cal.converged;
+  if (twin_error) {
+    const double dt = (cal.delta.translation() - error.translation()).norm();
+    const double dr = rad2deg(Eigen::AngleAxisd(cal.delta.linear().transpose() * error.linear()).angle());
+    j["twin_check"] = {{"translation_error_mm", 1e3 * dt}, {"rotation_error_deg", dr}};
+  }
+  std::ofstream(cmd.out) << j.dump(1) << '\n';
+  std::printf(
+      "mount correction (%.3f, %.3f, %.3f) mm, (%.4f, %.4f, %.4f) deg; rms %.2f mm over %d table and %d box "
+      "points -> %s\n",
+      1e3 * t.x(), 1e3 * t.y(), 1e3 * t.z(), r.x(), r.y(), r.z(), 1e3 * cal.rms_m, cal.table_points,
+      cal.box_points, cmd.out.c_str());
+  if (twin_error)
+    std::printf("twin check: the mount error put in was recovered within %.3f mm and %.4f deg\n",
+                j["twin_check"]["translation_error_mm"].get<double>(),
+                j["twin_check"]["rotation_error_deg"].get<double>());
+  if (!cal.converged || cal.rms_m > 0.004) {
+    std::printf("UNTRUSTWORTHY: %s\n",
+                !cal.converged ? "the fit did not converge" : "residuals above 4 mm rms");
+    return 3;
+  }
+  return 0;
+}
+
+}  // namespace weldtwin
