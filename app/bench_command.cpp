@@ -14,6 +14,7 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <random>
 #include <thread>
 
@@ -23,6 +24,7 @@
 #include "core/error.hpp"
 #include "perception/cloud_io.hpp"
 #include "perception/localizer.hpp"
+#include "perception/mount_calibration.hpp"
 #include "perception/paper_localizer.hpp"
 #include "perception/pose_error.hpp"
 #include "perception/scan_assembly.hpp"
@@ -152,7 +154,7 @@ void set_verdict(json& j, const std::vector<std::string>& reasons) {
 
 // One trial, start to end, in this process. Timings go under "seconds" (the only part that differs between
 // runs of the same seed).
-json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d) {
+json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d, const BenchCell* calibration) {
   json j;
   j["index"] = d.index;
   j["seed"] = cmd.seed;
@@ -189,7 +191,30 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d) {
     for (JointState& s : sweep.log.joints)
       for (int k = 0; k < s.q.size(); ++k) s.q[k] += noise(rng);
   }
-  const AssembledCloud cloud = assemble_scan(sweep.log, c.robot);
+  // With --calibrate, the mount is first found from a sweep of the calibration cell through the same
+  // (wrong) mount, and the scan assembled with it; otherwise with the URDF's.
+  RobotModel assembly_robot = c.robot;
+  if (calibration) {
+    const MujocoWorld cal_world(calibration->cell, calibration->part, real_robot,
+                                make_layout(calibration->cell, calibration->part, {}));
+    LidarSetting cal_lidar;
+    cal_lidar.apply(calibration->cell.lidar_overrides, calibration->cell.source);
+    cal_lidar.seed = d.lidar_seed + 1;
+    const ScanLog cal_log =
+        simulate_sweep(cal_world, real_robot, calibration->program, cal_lidar, options).log;
+    MountCalibrationSetting cal_setting;
+    Vec3 lo = Vec3::Constant(1e9), hi = Vec3::Constant(-1e9);
+    for (const Vec3& v : calibration->mesh.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+    cal_setting.box_size_m = hi - lo;
+    const MountCalibration cal = calibrate_mount(cal_log, c.robot, cal_setting, calibration->cell.source);
+    assembly_robot = c.robot.with_mount_offset(lidar_link, cal.delta);
+    j["calibration"] = {
+        {"translation_error_mm", rounded(1e3 * (cal.delta.translation() - delta.translation()).norm(), 1e-4)},
+        {"rotation_error_deg",
+         rounded(rad2deg(Eigen::AngleAxisd(cal.delta.linear().transpose() * delta.linear()).angle()), 1e-5)}};
+    lap("calibrate");
+  }
+  const AssembledCloud cloud = assemble_scan(sweep.log, assembly_robot);
   j["scan_points"] = cloud.points_base.size();
   lap("assemble");
 
@@ -327,6 +352,8 @@ int run_bench(const BenchCommand& cmd_in) {
   if (cmd.jobs <= 0) cmd.jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   std::vector<BenchCell> cells;
   for (const std::string& f : cmd.cells) cells.emplace_back(f);
+  std::optional<BenchCell> calibration;
+  if (cmd.calibrate) calibration.emplace(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/calibration.yaml");
 
   std::vector<uint64_t> indices;
   for (int i = cmd.shard; i < cmd.trials; i += cmd.shards) indices.push_back(static_cast<uint64_t>(i));
@@ -438,7 +465,7 @@ int run_bench(const BenchCommand& cmd_in) {
         try {
           inject_fault(cmd.faults, indices[slot]);
           const Draw& d = draws[slot];
-          json line = run_trial(cmd, cells[d.cell], d);
+          json line = run_trial(cmd, cells[d.cell], d, calibration ? &*calibration : nullptr);
           line["draw"] = draw_json(d, cells, cmd);
           text = line.dump();
         } catch (const std::exception& e) {

@@ -148,6 +148,10 @@ int main(int argc, char** argv) {
   bc->add_option("--mount-error-mm", mount_mm, "LiDAR mount error drawn per trial: sigma per axis [mm]");
   bc->add_option("--mount-error-deg", mount_deg, "LiDAR mount error drawn per trial: sigma per axis [deg]");
   bc->add_flag(
+      "--calibrate", bench.calibrate,
+      "each trial first finds the LiDAR mount from a sweep of the calibration cell through its mount "
+      "error (as weldtwin calibrate), and assembles its scan with it");
+  bc->add_flag(
       "--resume", bench.resume,
       "keep the finished trials already in --out (of a stopped run of the same benchmark), run the rest");
   bc->add_option("--encoder-noise-rad", bench.encoder_noise_rad, "joint encoder noise sigma [rad]");
