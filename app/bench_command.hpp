@@ -28,7 +28,8 @@ struct BenchCommand {
   double mount_error_m = 0.0;      ///< LiDAR mount error drawn per trial: translation sigma per axis [m]
   double mount_error_rad = 0.0;    ///< and rotation sigma per axis [rad]
   double encoder_noise_rad = 0.0;  ///< joint encoder noise (sigma) on the recorded joint states [rad]
-  bool calibrate = false;  ///< find each trial's mount from a sweep of the calibration cell first (as weldtwin calibrate)
+  bool calibrate =
+      false;  ///< find each trial's mount from a sweep of the calibration cell first (as weldtwin calibrate)
   bool quiet = false;
   bool resume = false;      ///< keep the finished lines already in `out` (a stopped run) and run the rest
   std::string keep_failed;  ///< DIR: a failed trial's scan, poses and plan go to DIR/trial-INDEX/

@@ -338,7 +338,8 @@ int run_bench_report(const BenchReportCommand& cmd) {
   h << "</table>\n<h2>Time per stage [s]</h2>\n<table><tr><th>stage</th><th>mean</th><th>median</th><th>p95"
        "</th><th>max</th></tr>\n";
   std::vector<std::string> stages;  // in the order of a trial, then any others
-  for (const char* k : {"world", "sweep", "calibrate", "assemble", "ours", "paper", "plan", "replay", "total"})
+  for (const char* k :
+       {"world", "sweep", "calibrate", "assemble", "ours", "paper", "plan", "replay", "total"})
     if (s["seconds"].contains(k)) stages.push_back(k);
   for (const auto& [stage, p] : s["seconds"].items())
     if (std::find(stages.begin(), stages.end(), stage) == stages.end()) stages.push_back(stage);

@@ -14,16 +14,6 @@
 namespace weldtwin {
 namespace {
 
-Iso3 from_xyz_rpy(const std::vector<double>& mm, const std::vector<double>& deg) {
-  Iso3 d = Iso3::Identity();
-  if (!mm.empty()) d.translate(1e-3 * Vec3(mm[0], mm[1], mm[2]));
-  if (!deg.empty())
-    d.rotate(Eigen::AngleAxisd(deg2rad(deg[2]), Vec3::UnitZ()) *
-             Eigen::AngleAxisd(deg2rad(deg[1]), Vec3::UnitY()) *
-             Eigen::AngleAxisd(deg2rad(deg[0]), Vec3::UnitX()));
-  return d;
-}
-
 // Roll, pitch, yaw [deg] of R = Rz(yaw) Ry(pitch) Rx(roll), as URDF's rpy.
 Vec3 rpy_deg(const Mat3& R) {
   const Vec3 ypr = R.eulerAngles(2, 1, 0);
@@ -36,6 +26,31 @@ Vec3 rpy_deg(const Mat3& R) {
 }
 
 }  // namespace
+
+Iso3 mount_offset(const std::vector<double>& mm, const std::vector<double>& deg) {
+  Iso3 d = Iso3::Identity();
+  if (!mm.empty()) d.translate(1e-3 * Vec3(mm.at(0), mm.at(1), mm.at(2)));
+  if (!deg.empty())
+    d.rotate(Eigen::AngleAxisd(deg2rad(deg.at(2)), Vec3::UnitZ()) *
+             Eigen::AngleAxisd(deg2rad(deg.at(1)), Vec3::UnitY()) *
+             Eigen::AngleAxisd(deg2rad(deg.at(0)), Vec3::UnitX()));
+  return d;
+}
+
+Iso3 read_mount_correction(const std::string& path, std::string& link) {
+  std::ifstream in(path);
+  if (!in) throw input_error(path, "cannot be read");
+  try {
+    const nlohmann::json j = nlohmann::json::parse(in);
+    link = j.at("lidar_link").get<std::string>();
+    const auto xyz = j.at("correction").at("xyz_m").get<std::vector<double>>();
+    const auto rpy = j.at("correction").at("rpy_deg").get<std::vector<double>>();
+    if (xyz.size() != 3 || rpy.size() != 3) throw std::runtime_error("xyz_m and rpy_deg take three numbers");
+    return mount_offset({1e3 * xyz[0], 1e3 * xyz[1], 1e3 * xyz[2]}, rpy);
+  } catch (const std::exception& e) {
+    throw input_error(path, std::string("not a mount JSON of weldtwin calibrate: ") + e.what());
+  }
+}
 
 int run_calibrate(const CalibrateCommand& cmd) {
   if (cmd.out.empty()) throw InputError("calibrate: --out (the mount JSON to write) is needed");
@@ -57,7 +72,7 @@ int run_calibrate(const CalibrateCommand& cmd) {
     setting.box_size_m = hi - lo;
   }
   const CellLayout layout = make_layout(cell, part, {});
-  const Iso3 error = from_xyz_rpy(cmd.mount_error_mm, cmd.mount_error_deg);
+  const Iso3 error = mount_offset(cmd.mount_error_mm, cmd.mount_error_deg);
   const std::string lidar_link = SweepOptions().lidar_link;
   const RobotModel real = twin_error ? robot.with_mount_offset(lidar_link, error) : robot;
   const MujocoWorld world(cell, part, real, layout);

@@ -39,6 +39,14 @@ int main(int argc, char** argv) {
         "ROS 1 bag, ROS 2 bag directory); the cell (and --seed) still stand for the truth and the "
         "twin the plan is replayed in")
       ->capture_default_str();
+  rc->add_option("--mount-error-mm", run.mount_error_mm,
+                 "twin only: the LiDAR's real mount is off by X Y Z mm")
+      ->expected(3);
+  rc->add_option("--mount-error-deg", run.mount_error_deg, "twin only: and by roll pitch yaw deg")
+      ->expected(3);
+  rc->add_option("--lidar-mount", run.lidar_mount,
+                 "mount JSON of weldtwin calibrate: assemble the scan with the calibrated LiDAR mount")
+      ->check(CLI::ExistingFile);
   rc->add_flag("-q,--quiet", run.quiet, "no progress lines");
 
   weldtwin::ReplayCommand replay;

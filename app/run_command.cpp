@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "app/calibrate_command.hpp"
 #include "app/localize_command.hpp"
 #include "app/plan_command.hpp"
 #include "app/report.hpp"
@@ -44,7 +45,23 @@ int run_job(const RunCommand& cmd) {
   lidar.apply(cell.lidar_overrides, cell.source);
   if (cmd.seed) lidar.seed = *cmd.seed;
   const CellLayout layout = make_layout(cell, part, cmd.seed);
-  const MujocoWorld world(cell, part, robot, layout);
+  // The cell as it is: in the twin, the LiDAR's mount may be put wrong on purpose.
+  const bool mount_error = !cmd.mount_error_mm.empty() || !cmd.mount_error_deg.empty();
+  if (mount_error && cmd.source != "sim") throw InputError("--mount-error-* is for the twin's sweep only");
+  const std::string lidar_link = SweepOptions().lidar_link;
+  const RobotModel real =
+      mount_error ? robot.with_mount_offset(lidar_link, mount_offset(cmd.mount_error_mm, cmd.mount_error_deg))
+                  : robot;
+  // The scan is assembled with the URDF's mount, or the calibrated one.
+  RobotModel assembly = robot;
+  if (!cmd.lidar_mount.empty()) {
+    std::string link;
+    const Iso3 correction = read_mount_correction(cmd.lidar_mount, link);
+    if (robot.link_index(link) < 0)
+      throw input_error(cmd.lidar_mount, "the robot has no link '" + link + "'");
+    assembly = robot.with_mount_offset(link, correction);
+  }
+  const MujocoWorld world(cell, part, real, layout);
   std::error_code ec;
   std::filesystem::create_directories(cmd.out, ec);
   if (ec) throw input_error(cmd.out, "cannot create the output directory: " + ec.message());
@@ -62,7 +79,7 @@ int run_job(const RunCommand& cmd) {
   // 1. The sweep.
   SimScanInputs sim;
   sim.world = &world;
-  sim.robot = &robot;
+  sim.robot = &real;
   sim.program = &program;
   sim.lidar = lidar;
   sim.options.threads = cmd.threads;
@@ -72,7 +89,7 @@ int run_job(const RunCommand& cmd) {
             "/scan.scanlog");  // every run keeps its sweep: `--source log:DIR/scan.scanlog` replays it
   AssembledCloud cloud;
   try {
-    cloud = assemble_scan(log, robot);
+    cloud = assemble_scan(log, assembly);
   } catch (const std::invalid_argument& e) {  // a log of another robot
     throw input_error(cmd.source, e.what());
   }

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace weldtwin {
 
@@ -15,7 +16,10 @@ struct RunCommand {
   bool renders = true;  ///< OSMesa pictures and plots in the report (off: figures only, faster)
   bool quiet = false;
   int threads = 0;
-  std::string source = "sim";  ///< sim | log:FILE | lidar:DEV (hw/scan_source.hpp)
+  std::string source = "sim";                           ///< sim | log:FILE | lidar:DEV (hw/scan_source.hpp)
+  std::vector<double> mount_error_mm, mount_error_deg;  ///< twin only: the LiDAR's real mount is off by this
+  std::string
+      lidar_mount;  ///< mount JSON of weldtwin calibrate: the scan is assembled with the corrected mount
 };
 
 /// Returns the exit code: 0 PASS, 3 FAIL (the report says why). Throws InputError for bad input.

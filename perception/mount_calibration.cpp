@@ -142,7 +142,9 @@ MountCalibration calibrate_mount(const ScanLog& log, const RobotModel& robot,
     if (out.table_points < 500 || out.box_points < 500)
       throw input_error(source, "the sweep shows " + std::to_string(out.table_points) + " table and " +
                                     std::to_string(out.box_points) +
-                                    " box points near where they should be: too few to calibrate from");
+                                    " box points near where they should be: too few to calibrate from (is "
+                                    "the calibration box on the "
+                                    "table?)");
 
     // Gauss-Newton steps on these associations (central differences).
     for (int step = 0; step < 3; ++step) {

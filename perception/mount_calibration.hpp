@@ -16,7 +16,7 @@ namespace weldtwin {
 
 struct MountCalibrationSetting {
   Vec3 box_size_m = Vec3(0.25, 0.15, 0.10);  ///< the known box (x, y, z extents), resting on the table
-  int max_points = 40000;                    ///< points used (evenly thinned)
+  int max_points = 120000;                   ///< points used (evenly thinned)
   int rounds = 12;                           ///< association rounds (each with a few Gauss-Newton steps)
   double near_m = 0.02;                      ///< points this close to the table plane or a box face are used
   double keep_out_radius_m = 0.25;           ///< points this close to the robot's base axis are not used

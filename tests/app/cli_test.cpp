@@ -212,7 +212,18 @@ TEST(Cli, CalibrateFindsAWrongMountInTheTwin) {
   const size_t rot = text.find("\"rotation_error_deg\"");
   EXPECT_LT(std::stod(text.substr(text.find(':', rot) + 1)), 0.1);
   expect_bad_input(weldtwin("calibrate " + test::repo("scenes/cells/default.yaml") + " -q --out " + out),
-                   "no box top");
+                   "is the calibration box on the table?");
+  // End to end: the default job in a cell whose LiDAR mount is that far off misses the seams; with the
+  // calibrated mount it welds them.
+  const auto dir = std::filesystem::temp_directory_path() / "weldtwin_cli_calibrated";
+  const std::string wrong =
+      " --mount-error-mm -1 2 0.5 --mount-error-deg 0.3 0.2 -0.4 --no-renders -q --out ";
+  EXPECT_EQ(weldtwin("run" + wrong + (dir / "uncalibrated").string()).code, 3);
+  const CliRun calibrated = weldtwin("run" + wrong + (dir / "calibrated").string() + " --lidar-mount " + out);
+  EXPECT_EQ(calibrated.code, 0) << calibrated.err;
+  expect_bad_input(weldtwin("run --no-renders -q --lidar-mount " + temp_file("bad_mount.json", "{}") +
+                            " --out " + (dir / "x").string()),
+                   "not a mount JSON");
 }
 
 }  // namespace
