@@ -85,7 +85,7 @@ int run_calibrate(const CalibrateCommand& cmd) {
   if (cmd.seed) sim.lidar.seed = *cmd.seed;
   const auto source = make_scan_source(cmd.source, robot, sim);
   if (!cmd.quiet)
-    std::fprintf(stderr, "calibrate: sweeping the calibration cell: %s\n", source->describe().c_str());
+    std::fprintf(stderr, "calibrate: a sweep of the calibration cell from %s\n", source->describe().c_str());
   const ScanLog log = source->acquire();
   const MountCalibration cal = calibrate_mount(log, robot, setting, cmd.source);
 

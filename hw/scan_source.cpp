@@ -14,7 +14,7 @@ class SimSource : public ScanSource {
   explicit SimSource(const SimScanInputs& in) : in_(in) {
     if (!in_.world || !in_.robot || !in_.program) throw std::logic_error("sim scan source without a twin");
   }
-  std::string describe() const override { return "the twin's simulated sweep"; }
+  std::string describe() const override { return "the twin (simulated)"; }
   ScanLog acquire() override {
     SweepResult r = simulate_sweep(*in_.world, *in_.robot, *in_.program, in_.lidar, in_.options);
     labels_ = std::move(r.labels);
@@ -30,7 +30,7 @@ class SimSource : public ScanSource {
 class LogSource : public ScanSource {
  public:
   LogSource(std::string path, const RobotModel& robot) : path_(std::move(path)), robot_(robot) {}
-  std::string describe() const override { return "the recorded sweep " + path_; }
+  std::string describe() const override { return "the recording " + path_; }
   ScanLog acquire() override { return read_any_scan_log(path_, robot_); }
 
  private:
