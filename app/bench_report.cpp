@@ -116,6 +116,7 @@ json summarise(const std::map<uint64_t, json>& trials, uint64_t seed) {
   std::map<std::string, Group> groups;  // "" = all
   std::map<std::string, std::vector<double>> seconds;
   std::map<std::string, size_t> kinds, causes;
+  std::vector<double> calibration_mm, calibration_deg;  // with --calibrate: the mount found against the truth
   for (const auto& [index, j] : trials) {
     const std::string part = j["draw"].value("part", "?");
     for (const std::string& key : {std::string(), part}) {
@@ -142,6 +143,10 @@ json summarise(const std::map<uint64_t, json>& trials, uint64_t seed) {
       if (flag(j, "plan", "ok")) ++g.planned;
       if (j.contains("replay")) ++g.replayed;
       if (j.value("verdict", "") == "pass") ++g.welded;
+    }
+    if (j.contains("calibration")) {
+      calibration_mm.push_back(j["calibration"].value("translation_error_mm", 0.0));
+      calibration_deg.push_back(j["calibration"].value("rotation_error_deg", 0.0));
     }
     for (const auto& [stage, v] : j["seconds"].items())
       if (v.is_number()) seconds[stage].push_back(v.get<double>());
@@ -180,6 +185,10 @@ json summarise(const std::map<uint64_t, json>& trials, uint64_t seed) {
       s["overall"] = p;
     else
       s["parts"][key] = p;
+  }
+  if (!calibration_mm.empty()) {
+    s["calibration"]["translation_error_mm"] = percentiles(calibration_mm);
+    s["calibration"]["rotation_error_deg"] = percentiles(calibration_deg);
   }
   s["seconds"] = json::object();
   for (const auto& [stage, v] : seconds) s["seconds"][stage] = percentiles(v);
@@ -350,7 +359,14 @@ int run_bench_report(const BenchReportCommand& cmd) {
       << html::num(p["p95"].get<double>(), 2) << "</td><td>" << html::num(p["max"].get<double>(), 2)
       << "</td></tr>\n";
   }
-  h << "</table>\n<h2>Why trials failed</h2>\n";
+  h << "</table>\n";
+  if (s.contains("calibration"))
+    h << "<h2>LiDAR mount calibration</h2>\n<p>Each trial's mount, found from a sweep of the calibration "
+         "cell, "
+         "against the mount error put in: translation "
+      << mm3(s["calibration"]["translation_error_mm"]) << " mm, rotation "
+      << mm3(s["calibration"]["rotation_error_deg"]) << " deg (median / p95 / max).</p>\n";
+  h << "<h2>Why trials failed</h2>\n";
   if (!s.contains("failure_causes")) {
     h << "<p>None did.</p>\n";
   } else {

@@ -156,6 +156,7 @@ TEST(BenchReport, RatesIntervalsAndPercentilesAreRight) {
         j["cause_kind"] = i == 9 ? "localization" : "plan";
       }
       j["seconds"] = {{"sweep", 1.0 + i}, {"total", 2.0 + i}};
+      if (i < 4) j["calibration"] = {{"translation_error_mm", 0.1 * (i + 1)}, {"rotation_error_deg", 0.01}};
       out << j.dump() << '\n';
     }
   }
@@ -180,6 +181,8 @@ TEST(BenchReport, RatesIntervalsAndPercentilesAreRight) {
   EXPECT_DOUBLE_EQ(s["seconds"]["sweep"]["max"].get<double>(), 10.0);
   EXPECT_DOUBLE_EQ(s["seconds"]["sweep"]["mean"].get<double>(), 5.5);
   EXPECT_EQ(s["failure_kinds"]["plan"], 2);
+  EXPECT_EQ(s["calibration"]["translation_error_mm"]["n"], 4);
+  EXPECT_DOUBLE_EQ(s["calibration"]["translation_error_mm"]["max"].get<double>(), 0.4);
   // Causes alike but for their numbers count together.
   ASSERT_GE(s["failure_causes"].size(), 1u);
   EXPECT_EQ(s["failure_causes"][0]["count"], 2);
