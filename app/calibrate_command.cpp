@@ -1,5 +1,6 @@
 #include "app/calibrate_command.hpp"
 
+#include <tinyxml.h>
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -23,6 +24,31 @@ Vec3 rpy_deg(const Mat3& R) {
     rpy = Vec3(rpy[0] - kPi * (rpy[0] > 0 ? 1 : -1), kPi - rpy[1], rpy[2] - kPi);
   for (int i = 0; i < 3; ++i) rpy[i] = std::remainder(rpy[i], 2 * kPi);
   return rpy * 180.0 / kPi;
+}
+
+// Writes `urdf` again with the origin of the joint whose child is `link` replaced by `origin`; every other
+// element as it was (parsed and written by TinyXML, which urdfdom reads with).
+void write_urdf_with_mount(const std::string& urdf, const std::string& link, const Iso3& origin,
+                           const std::string& out) {
+  TiXmlDocument doc;
+  if (!doc.LoadFile(urdf.c_str())) throw input_error(urdf, "cannot be read as XML");
+  TiXmlElement* robot = doc.FirstChildElement("robot");
+  for (TiXmlElement* j = robot ? robot->FirstChildElement("joint") : nullptr; j;
+       j = j->NextSiblingElement("joint")) {
+    const TiXmlElement* child = j->FirstChildElement("child");
+    if (!child || !child->Attribute("link") || link != child->Attribute("link")) continue;
+    TiXmlElement* o = j->FirstChildElement("origin");
+    if (!o) o = j->InsertEndChild(TiXmlElement("origin"))->ToElement();
+    const Vec3 t = origin.translation(), r = rpy_deg(origin.linear()) * kPi / 180.0;
+    char xyz[128], rpy[128];
+    std::snprintf(xyz, sizeof xyz, "%.9g %.9g %.9g", t.x(), t.y(), t.z());
+    std::snprintf(rpy, sizeof rpy, "%.9g %.9g %.9g", r.x(), r.y(), r.z());
+    o->SetAttribute("xyz", xyz);
+    o->SetAttribute("rpy", rpy);
+    if (!doc.SaveFile(out.c_str())) throw input_error(out, "cannot be written");
+    return;
+  }
+  throw input_error(urdf, "no joint with child link '" + link + "'");
 }
 
 }  // namespace
@@ -107,6 +133,12 @@ int run_calibrate(const CalibrateCommand& cmd) {
     j["twin_check"] = {{"translation_error_mm", 1e3 * dt}, {"rotation_error_deg", dr}};
   }
   std::ofstream(cmd.out) << j.dump(1) << '\n';
+  if (!cmd.urdf_out.empty()) {
+    const RobotLink& l = robot.links()[static_cast<size_t>(robot.require_link(log.lidar_frame))];
+    write_urdf_with_mount(cell.robot_urdf, log.lidar_frame, l.T_parent_joint * cal.delta, cmd.urdf_out);
+    if (!cmd.quiet)
+      std::fprintf(stderr, "calibrate: the URDF with the calibrated mount: %s\n", cmd.urdf_out.c_str());
+  }
   std::printf(
       "mount correction (%.3f, %.3f, %.3f) mm, (%.4f, %.4f, %.4f) deg; rms %.2f mm over %d table and %d box "
       "points -> %s\n",

@@ -18,6 +18,7 @@ struct CalibrateCommand {
   std::optional<uint64_t> seed;                         ///< LiDAR noise seed of the twin's sweep
   std::vector<double> mount_error_mm, mount_error_deg;  ///< twin only: the wrong mount to sweep through
   std::string out;                                      ///< mount JSON to write
+  std::string urdf_out;  ///< "" = none: the robot URDF with the calibrated mount, all else as it was
   bool quiet = false;
 };
 

@@ -199,6 +199,8 @@ int main(int argc, char** argv) {
   cc->add_option("--mount-error-deg", cal.mount_error_deg, "twin only: and by roll pitch yaw deg")
       ->expected(3);
   cc->add_option("--out", cal.out, "mount JSON to write")->required();
+  cc->add_option("--urdf-out", cal.urdf_out,
+                 "also write the robot's URDF with the calibrated LiDAR mount (everything else as it was)");
   cc->add_flag("-q,--quiet", cal.quiet, "no progress line");
 
   try {

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "app/calibrate_command.hpp"
 #include "tests/test_support.hpp"
 
 namespace weldtwin {
@@ -201,9 +202,26 @@ TEST(Cli, RunFromRecordedBagsMatchesTheLiveRun) {
 // refused.
 TEST(Cli, CalibrateFindsAWrongMountInTheTwin) {
   const std::string out = temp_file("mount.json", "");
-  const CliRun r =
-      weldtwin("calibrate -q --mount-error-mm -1 2 0.5 --mount-error-deg 0.3 0.2 -0.4 --out " + out);
+  const std::string urdf = temp_file("calibrated.urdf", "");
+  const CliRun r = weldtwin("calibrate -q --mount-error-mm -1 2 0.5 --mount-error-deg 0.3 0.2 -0.4 --out " +
+                            out + " --urdf-out " + urdf);
   ASSERT_EQ(r.code, 0) << r.err;
+  // The URDF written with the calibrated mount puts the LiDAR where the twin's wrong mount really had it, and
+  // changes nothing else.
+  const RobotModel nominal = RobotModel::load(test::repo("scenes/robots/aubo_i5.urdf"));
+  const RobotModel calibrated = RobotModel::load(urdf);
+  const RobotModel real = nominal.with_mount_offset("lidar", mount_offset({-1, 2, 0.5}, {0.3, 0.2, -0.4}));
+  std::mt19937_64 rng(5);
+  for (int k = 0; k < 20; ++k) {
+    const JointVector q = test::random_q(nominal, rng);
+    const Iso3 a = calibrated.forward_kinematics(q, calibrated.require_link("lidar"));
+    const Iso3 b = real.forward_kinematics(q, real.require_link("lidar"));
+    EXPECT_LT((a.translation() - b.translation()).norm(), 5e-4);
+    EXPECT_LT(rad2deg(Eigen::AngleAxisd(a.linear().transpose() * b.linear()).angle()), 0.1);
+    const Iso3 f = calibrated.forward_kinematics(q, calibrated.require_link("flange"));
+    EXPECT_LT((f.matrix() - nominal.forward_kinematics(q, nominal.require_link("flange")).matrix()).norm(),
+              1e-12);
+  }
   std::ifstream in(out);
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   const size_t at = text.find("\"translation_error_mm\"");
@@ -219,8 +237,9 @@ TEST(Cli, CalibrateFindsAWrongMountInTheTwin) {
   const std::string wrong =
       " --mount-error-mm -1 2 0.5 --mount-error-deg 0.3 0.2 -0.4 --no-renders -q --out ";
   EXPECT_EQ(weldtwin("run" + wrong + (dir / "uncalibrated").string()).code, 3);
-  const CliRun calibrated = weldtwin("run" + wrong + (dir / "calibrated").string() + " --lidar-mount " + out);
-  EXPECT_EQ(calibrated.code, 0) << calibrated.err;
+  const CliRun calibrated_run =
+      weldtwin("run" + wrong + (dir / "calibrated").string() + " --lidar-mount " + out);
+  EXPECT_EQ(calibrated_run.code, 0) << calibrated_run.err;
   expect_bad_input(weldtwin("run --no-renders -q --lidar-mount " + temp_file("bad_mount.json", "{}") +
                             " --out " + (dir / "x").string()),
                    "not a mount JSON");
