@@ -6,6 +6,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -18,7 +19,10 @@ namespace {
 std::string g_cell;
 
 nlohmann::json run_seed(int seed, int& exit_code) {
-  const std::string dir = ::testing::TempDir() + "weldtwin_run_" + std::to_string(seed);
+  // One directory per cell and seed: the three run tests go side by side (ctest -j), and two processes
+  // writing the same scan.pcd (PCL writes it through mmap) end one of them with SIGBUS.
+  const std::string cell = std::filesystem::path(g_cell).stem().string();
+  const std::string dir = ::testing::TempDir() + "weldtwin_run_" + cell + "_" + std::to_string(seed);
   const std::string cmd = std::string(WELDTWIN_BINARY) + " run " + weldtwin::test::repo(g_cell) + " --seed " +
                           std::to_string(seed) + " --out " + dir + " --no-renders -q --threads 1 > " + dir +
                           ".stdout 2>&1";
