@@ -18,6 +18,7 @@
 #include <random>
 #include <thread>
 
+#include "app/calibrate_command.hpp"
 #include "app/localize_command.hpp"
 #include "app/plan_command.hpp"
 #include "core/cell_spec.hpp"
@@ -170,11 +171,8 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d, const
   // The cell as it really is: with the mount error the sweep sees through; the nominal robot assembles it.
   const std::string lidar_link = SweepOptions().lidar_link;
   const bool mount_error = !d.mount_xyz_m.isZero() || !d.mount_rpy_rad.isZero();
-  Iso3 delta = Iso3::Identity();
-  delta.translate(d.mount_xyz_m);
-  delta.rotate(Eigen::AngleAxisd(d.mount_rpy_rad.z(), Vec3::UnitZ()) *
-               Eigen::AngleAxisd(d.mount_rpy_rad.y(), Vec3::UnitY()) *
-               Eigen::AngleAxisd(d.mount_rpy_rad.x(), Vec3::UnitX()));
+  const Vec3 mm = 1e3 * d.mount_xyz_m, deg = d.mount_rpy_rad * 180.0 / kPi;
+  const Iso3 delta = mount_offset({mm.x(), mm.y(), mm.z()}, {deg.x(), deg.y(), deg.z()});
   const RobotModel real_robot = mount_error ? c.robot.with_mount_offset(lidar_link, delta) : c.robot;
   const MujocoWorld world(c.cell, c.part, real_robot, d.layout);
   lap("world");
@@ -202,11 +200,8 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d, const
     cal_lidar.seed = d.lidar_seed + 1;
     const ScanLog cal_log =
         simulate_sweep(cal_world, real_robot, calibration->program, cal_lidar, options).log;
-    MountCalibrationSetting cal_setting;
-    Vec3 lo = Vec3::Constant(1e9), hi = Vec3::Constant(-1e9);
-    for (const Vec3& v : calibration->mesh.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
-    cal_setting.box_size_m = hi - lo;
-    const MountCalibration cal = calibrate_mount(cal_log, c.robot, cal_setting, calibration->cell.source);
+    const MountCalibration cal = calibrate_mount(
+        cal_log, c.robot, MountCalibrationSetting::for_box(calibration->mesh), calibration->cell.source);
     assembly_robot = c.robot.with_mount_offset(lidar_link, cal.delta);
     j["calibration"] = {
         {"translation_error_mm", rounded(1e3 * (cal.delta.translation() - delta.translation()).norm(), 1e-4)},

@@ -91,12 +91,7 @@ int run_calibrate(const CalibrateCommand& cmd) {
   const PartSpec part = PartSpec::load(cell.part_spec);
   const RobotModel robot = RobotModel::load(cell.robot_urdf);
   const Mesh box = load_mesh(part.mesh_path);
-  MountCalibrationSetting setting;
-  {
-    Vec3 lo = Vec3::Constant(1e9), hi = Vec3::Constant(-1e9);
-    for (const Vec3& v : box.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
-    setting.box_size_m = hi - lo;
-  }
+  const MountCalibrationSetting setting = MountCalibrationSetting::for_box(box);
   const CellLayout layout = make_layout(cell, part, {});
   const Iso3 error = mount_offset(cmd.mount_error_mm, cmd.mount_error_deg);
   const std::string lidar_link = SweepOptions().lidar_link;

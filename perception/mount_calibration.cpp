@@ -59,6 +59,14 @@ double residual(const Sample& s, int face, const Iso3& delta, const Iso3& box_in
 
 }  // namespace
 
+MountCalibrationSetting MountCalibrationSetting::for_box(const Mesh& box) {
+  MountCalibrationSetting s;
+  Vec3 lo = Vec3::Constant(1e9), hi = Vec3::Constant(-1e9);
+  for (const Vec3& v : box.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+  s.box_size_m = hi - lo;
+  return s;
+}
+
 MountCalibration calibrate_mount(const ScanLog& log, const RobotModel& robot,
                                  const MountCalibrationSetting& setting, const std::string& source) {
   const int lidar = robot.link_index(log.lidar_frame);

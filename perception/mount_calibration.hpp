@@ -11,6 +11,7 @@
 #include "core/geometry.hpp"
 #include "core/robot_model.hpp"
 #include "core/scan_log.hpp"
+#include "perception/mesh_io.hpp"
 
 namespace weldtwin {
 
@@ -20,6 +21,9 @@ struct MountCalibrationSetting {
   int rounds = 12;                           ///< association rounds (each with a few Gauss-Newton steps)
   double near_m = 0.02;                      ///< points this close to the table plane or a box face are used
   double keep_out_radius_m = 0.25;           ///< points this close to the robot's base axis are not used
+
+  /// The defaults, for the box whose mesh this is (its extents).
+  static MountCalibrationSetting for_box(const Mesh& box);
 };
 
 struct MountCalibration {
