@@ -1,0 +1,265 @@
+// The robot drivers. The Aubo driver against a fake ARCS controller on loopback (tests/support/fake_aubo):
+// the trajectory the controller receives equals the one sent, sample for sample, at the plan's step and the
+// speed override; a refused login, an unreachable or mute controller, an arm not ready or not at the start
+// are refused before anything moves; a controller fault, a dropped command connection, a dropped state
+// stream and a stop request mid-run each end in one clear error with a stop sent and the arm standing.
+// The sim driver runs a trajectory in the twin and fails one that drives the arm into the table.
+#include "hw/robot_driver.hpp"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+
+#include "core/error.hpp"
+#include "hw/json_link.hpp"
+#include "perception/mesh_io.hpp"
+#include "planning/weld_planner.hpp"
+#include "sim/collision_check.hpp"
+#include "tests/support/fake_aubo.hpp"
+#include "tests/test_support.hpp"
+
+namespace weldtwin {
+namespace {
+
+const RobotModel& robot() {
+  static const RobotModel r =
+      RobotModel::load(CellSpec::load(test::repo("scenes/cells/default.yaml")).robot_urdf);
+  return r;
+}
+
+const JointVector kHome = PlanSetting().home;
+
+// A 2 s move from home at 200 Hz, smooth (cosine) in every joint.
+JointTrajectory a_move(double seconds = 2.0) {
+  JointTrajectory t;
+  const JointVector delta = (JointVector() << 0.4, -0.2, 0.3, 0.25, -0.35, 0.5).finished();
+  const int n = static_cast<int>(seconds / t.dt_s);
+  for (int i = 0; i <= n; ++i) t.q.push_back(kHome + delta * 0.5 * (1 - std::cos(kPi * i / n)));
+  return t;
+}
+
+test::FakeAuboSetting fake_at_home(double time_scale = 4.0) {
+  test::FakeAuboSetting s;
+  s.start_q = kHome;
+  s.time_scale = time_scale;
+  return s;
+}
+
+RobotDriverSetting quick(double timeout_s = 1.0) {
+  RobotDriverSetting s;
+  s.timeout_s = timeout_s;
+  return s;
+}
+
+std::unique_ptr<RobotDriver> driver_for(const test::FakeAubo& fake, const RobotDriverSetting& s = quick()) {
+  return make_robot_driver(fake.spec(), robot(), SimRobotInputs(), s);
+}
+
+bool contains(const std::string& text, const std::string& what) {
+  return text.find(what) != std::string::npos;
+}
+
+// Runs `fn`, which must throw E; returns its message.
+template <class E, class F>
+std::string error_of(F fn) {
+  try {
+    fn();
+  } catch (const E& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "no error thrown";
+  return "";
+}
+
+TEST(JsonFramer, SplitsObjectsWhateverTheChunks) {
+  const std::string stream = R"({"a":"}{\"","b":[1,{"c":2}]}  {"d":"\\"}
+{"e":[]})";
+  for (size_t chunk : {1, 3, 7, 1000}) {
+    JsonFramer f;
+    std::vector<std::string> got;
+    for (size_t i = 0; i < stream.size(); i += chunk) {
+      f.feed(stream.data() + i, std::min(chunk, stream.size() - i));
+      std::string o;
+      while (f.next(o)) got.push_back(o);
+    }
+    ASSERT_EQ(got.size(), 3u) << "chunk " << chunk;
+    EXPECT_EQ(got[0], R"({"a":"}{\"","b":[1,{"c":2}]})");
+    EXPECT_EQ(got[1], R"({"d":"\\"})");
+    EXPECT_EQ(got[2], R"({"e":[]})");
+  }
+}
+
+TEST(AuboDriver, TheControllerReceivesTheTrajectorySampleForSample) {
+  test::FakeAubo fake(fake_at_home());
+  RobotDriverSetting s = quick();
+  s.speed_fraction = 0.5;
+  auto driver = driver_for(fake, s);
+  driver->connect();
+  EXPECT_LT((driver->joint_positions() - kHome).norm(), 1e-12);
+  const JointTrajectory t = a_move();
+  std::vector<double> host_times;
+  const ExecutionLog log =
+      driver->execute(t, [&](double host_s, const JointState&) { host_times.push_back(host_s); });
+
+  const std::vector<JointVector> got = fake.path();
+  ASSERT_EQ(got.size(), t.q.size());
+  for (size_t i = 0; i < got.size(); ++i)
+    for (int j = 0; j < 6; ++j) ASSERT_EQ(got[i][j], t.q[i][j]) << "sample " << i << " joint " << j;
+  EXPECT_EQ(fake.path_dt(), t.dt_s);
+  EXPECT_EQ(fake.speed_fraction(), 0.5);
+  EXPECT_TRUE(fake.protocol_errors().empty()) << fake.protocol_errors().front();
+  EXPECT_EQ(log.samples_sent, t.q.size());
+  EXPECT_EQ(fake.stops(), 0);
+  EXPECT_FALSE(fake.moving());
+  EXPECT_LT((fake.q() - t.q.back()).norm(), 1e-12);
+  // The joint log: what the arm reported, in time order, along the path, ending at its end. At half speed and
+  // a 4x fast fake, the 2 s path takes 1 s.
+  ASSERT_GT(log.joints.size(), 100u);
+  for (size_t k = 1; k < log.joints.size(); ++k) {
+    EXPECT_GT(log.joints[k].t_s, log.joints[k - 1].t_s);
+    EXPECT_GE(log.joints[k].q[0], log.joints[k - 1].q[0] - 1e-12);  // joint 1 only rises along this move
+  }
+  EXPECT_LT((log.joints.back().q - t.q.back()).norm(), 1e-9);
+  EXPECT_NEAR(log.wall_s, 1.0, 0.3);
+  EXPECT_EQ(host_times.size(), log.joints.size());
+}
+
+TEST(AuboDriver, ARefusedLoginSendsNothing) {
+  test::FakeAubo fake(fake_at_home());
+  RobotDriverSetting s = quick();
+  s.password = "wrong";
+  auto driver = driver_for(fake, s);
+  const std::string e = error_of<InputError>([&] { driver->connect(); });
+  EXPECT_TRUE(contains(e, "login refused")) << e;
+  EXPECT_TRUE(contains(e, fake.spec().substr(7))) << e;  // names the controller
+  EXPECT_EQ(fake.refused_logins(), 1);
+  EXPECT_EQ(fake.methods(), std::vector<std::string>{"login"});
+  EXPECT_TRUE(fake.path().empty());
+}
+
+TEST(AuboDriver, UnreachableMuteOrUnreadyControllersAreRefusedClearly) {
+  {  // nobody listening
+    int port = 0;
+    { port = JsonListener().port(); }  // a port just freed
+    auto driver = make_robot_driver("aubo://127.0.0.1:" + std::to_string(port), robot(), {}, quick());
+    const std::string e = error_of<InputError>([&] { driver->connect(); });
+    EXPECT_TRUE(contains(e, "cannot reach")) << e;
+  }
+  {  // takes the connection, never answers
+    test::FakeAuboSetting fs = fake_at_home();
+    fs.mute = true;
+    test::FakeAubo fake(fs);
+    auto driver = driver_for(fake, quick(0.3));
+    const double t0 = host_seconds();
+    const std::string e = error_of<InputError>([&] { driver->connect(); });
+    EXPECT_TRUE(contains(e, "no answer to login")) << e;
+    EXPECT_LT(host_seconds() - t0, 2.0);
+  }
+  {  // powered off
+    test::FakeAuboSetting fs = fake_at_home();
+    fs.robot_mode = "PowerOff";
+    test::FakeAubo fake(fs);
+    auto driver = driver_for(fake);
+    const std::string e = error_of<RobotError>([&] { driver->connect(); });
+    EXPECT_TRUE(contains(e, "not ready (robot mode PowerOff)")) << e;
+  }
+  EXPECT_THROW(make_robot_driver("aubo://", robot(), {}, quick()), InputError);
+  EXPECT_THROW(make_robot_driver("aubo://host:port", robot(), {}, quick()), InputError);
+  EXPECT_THROW(make_robot_driver("ur://host", robot(), {}, quick()), InputError);
+  RobotDriverSetting fast = quick();
+  fast.speed_fraction = 1.5;
+  EXPECT_THROW(make_robot_driver("aubo://host", robot(), {}, fast), InputError);
+}
+
+TEST(AuboDriver, NothingIsSentUnlessTheArmStandsAtTheStart) {
+  test::FakeAuboSetting fs = fake_at_home();
+  fs.start_q[1] += 0.1;
+  test::FakeAubo fake(fs);
+  auto driver = driver_for(fake);
+  driver->connect();
+  const std::string e = error_of<RobotError>([&] { driver->execute(a_move()); });
+  EXPECT_TRUE(contains(e, "0.100 rad from the trajectory's start; nothing was sent")) << e;
+  EXPECT_TRUE(fake.path().empty());
+  EXPECT_FALSE(fake.moving());
+}
+
+// Runs a_move() against a fake set up by `tweak`; returns the error, having checked the arm was stopped.
+std::string failing_run(void (*tweak)(test::FakeAuboSetting&), const std::atomic<bool>* stop = nullptr,
+                        const std::function<void(double, const JointState&)>& on_state = {}) {
+  test::FakeAuboSetting fs = fake_at_home(2.0);
+  tweak(fs);
+  test::FakeAubo fake(fs);
+  RobotDriverSetting s = quick();
+  s.stop_request = stop;
+  auto driver = driver_for(fake, s);
+  driver->connect();
+  const std::string e = error_of<RobotError>([&] { driver->execute(a_move(), on_state); });
+  EXPECT_GE(fake.stops(), 1) << "no stop sent: " << e;
+  EXPECT_FALSE(fake.moving()) << e;
+  EXPECT_LT(fake.progress(), 0.9) << e;
+  EXPECT_TRUE(fake.protocol_errors().empty()) << fake.protocol_errors().front();
+  return e;
+}
+
+TEST(AuboDriver, AControllerFaultMidRunStopsWithAClearError) {
+  const std::string e = failing_run([](test::FakeAuboSetting& s) { s.fault_at = 0.5; });
+  EXPECT_TRUE(contains(e, "controller fault: safety mode ProtectiveStop")) << e;
+  EXPECT_TRUE(contains(e, "stop sent, the arm halted")) << e;
+}
+
+TEST(AuboDriver, ADroppedCommandConnectionReconnectsToStopTheArm) {
+  const std::string e = failing_run([](test::FakeAuboSetting& s) { s.drop_rpc_at = 0.3; });
+  EXPECT_TRUE(contains(e, "the command connection failed")) << e;
+  EXPECT_TRUE(contains(e, "stop sent")) << e;
+}
+
+TEST(AuboDriver, ADroppedStateStreamStopsTheArm) {
+  const std::string e = failing_run([](test::FakeAuboSetting& s) { s.drop_rtde_at = 0.3; });
+  EXPECT_TRUE(contains(e, "the state stream dropped")) << e;
+  EXPECT_TRUE(contains(e, "stop sent, the controller reports no motion")) << e;
+}
+
+TEST(AuboDriver, AStopRequestHaltsTheArm) {
+  std::atomic<bool> stop{false};
+  const std::string e = failing_run([](test::FakeAuboSetting&) {}, &stop,
+                                    [&](double, const JointState& js) {
+                                      if (js.t_s > 0.3) stop = true;
+                                    });
+  EXPECT_TRUE(contains(e, "stopped on request (SIGINT); stop sent, the arm halted")) << e;
+}
+
+TEST(AuboDriver, ADryRunListsTheRequestsWithoutConnecting) {
+  auto driver = make_robot_driver("aubo://192.0.2.1", robot(), {}, quick());  // TEST-NET: nothing there
+  const JointTrajectory t = a_move();
+  const std::string text = driver->dry_run(t);
+  EXPECT_TRUE(contains(text, "\"method\": \"rob1.MotionControl.movePathBuffer\"")) << text.substr(0, 400);
+  EXPECT_TRUE(contains(text, "\"samples\": " + std::to_string(t.q.size())));
+  EXPECT_FALSE(contains(text, "123456"));  // no password in a file
+}
+
+TEST(SimDriver, RunsATrajectoryInTheTwinAndFailsOneIntoTheTable) {
+  const test::Cell cell;
+  const Mesh mesh = load_mesh(cell.part.mesh_path);
+  SimRobotInputs sim{cell.world.get(), &cell.part, &mesh, cell.layout.T_base_part};
+  auto driver = make_robot_driver("sim", cell.robot, sim, quick());
+  const JointTrajectory t = a_move();
+  const ExecutionLog log = driver->execute(t);
+  ASSERT_EQ(log.joints.size(), t.q.size());
+  for (size_t i = 0; i < t.q.size(); i += 20)
+    EXPECT_LT((log.joints[i].q - t.q[i]).cwiseAbs().maxCoeff(), 2e-3);
+  EXPECT_LT((driver->joint_positions() - t.q.back()).cwiseAbs().maxCoeff(), 2e-3);
+
+  // From where it stands, down into the table (the shoulder forward until the checker says so).
+  const CollisionChecker checker(*cell.world);
+  JointVector end = t.q.back();
+  while (checker(end).empty() && end[1] < 2.5) end[1] += 0.05;
+  ASSERT_FALSE(checker(end).empty());
+  JointTrajectory down;
+  for (int i = 0; i <= 400; ++i)
+    down.q.push_back(t.q.back() + (end - t.q.back()) * (0.5 * (1 - std::cos(kPi * i / 400))));
+  const std::string e = error_of<RobotError>([&] { driver->execute(down); });
+  EXPECT_TRUE(contains(e, "the twin's arm failed")) << e;
+}
+
+}  // namespace
+}  // namespace weldtwin
