@@ -8,6 +8,7 @@
 #include "app/calibrate_command.hpp"
 #include "app/localize_command.hpp"
 #include "app/plan_command.hpp"
+#include "app/robot_gate.hpp"
 #include "app/run_command.hpp"
 #include "app/scan_command.hpp"
 #include "core/error.hpp"
@@ -24,8 +25,10 @@ int main(int argc, char** argv) {
   bool no_renders = false;
   CLI::App* rc = app.add_subcommand(
       "run",
-      "The whole job in the twin: simulated sweep -> localization -> plan -> replay in MuJoCo -> report "
-      "(DIR/report.html, DIR/report.json); exit 0 PASS, 3 FAIL");
+      "The whole job: sweep (the twin's, a recording, or a live LiDAR on the arm) -> localization -> plan -> "
+      "replay in MuJoCo -> report (DIR/report.html, DIR/report.json) -> with --robot, a dry run or (with "
+      "--execute, and only after a passed replay) the plan on the robot; exit 0 PASS, 2 bad input, 3 FAIL "
+      "(also a refused --execute or a robot error), 130 stopped by Ctrl-C");
   rc->add_option("cell", run.cell, "cell file (default: scenes/cells/default.yaml)")
       ->check(CLI::ExistingFile);
   CLI::Option* run_seed_opt = rc->add_option(
@@ -35,9 +38,10 @@ int main(int argc, char** argv) {
   rc->add_option("--threads", run.threads, "ray-casting threads (default: all cores)");
   rc->add_option(
         "--source", run.source,
-        "where the sweep comes from: sim (the twin, default), or log:FILE — a recorded sweep (ScanLog, "
-        "ROS 1 bag, ROS 2 bag directory); the cell (and --seed) still stand for the truth and the "
-        "twin the plan is replayed in")
+        "where the sweep comes from: sim (the twin, default); log:FILE — a recorded sweep (ScanLog, "
+        "ROS 1 bag, ROS 2 bag directory); lidar:DEV — a live RPLIDAR A2 (e.g. lidar:/dev/ttyUSB0) while "
+        "--robot runs the cell's sweep program (needs --execute). The cell (and --seed) still stand for "
+        "the twin the plan is replayed in")
       ->capture_default_str();
   rc->add_option("--mount-error-mm", run.mount_error_mm,
                  "twin only: the LiDAR's real mount is off by X Y Z mm")
@@ -47,6 +51,20 @@ int main(int argc, char** argv) {
   rc->add_option("--lidar-mount", run.lidar_mount,
                  "mount JSON of weldtwin calibrate: assemble the scan with the calibrated LiDAR mount")
       ->check(CLI::ExistingFile);
+  CLI::Option* robot_opt = rc->add_option(
+      "--robot", run.robot,
+      "the arm: sim (the twin, default) or aubo://HOST[:RPC_PORT[:RTDE_PORT]] (an Aubo ARCS controller: "
+      "JSON-RPC on 30004, RTDE on 30010). Given, the run ends with a dry run: the requests that would be "
+      "sent, in DIR/robot_dry_run.json");
+  rc->add_flag("--execute", run.execute,
+               "send the plan to --robot: only the plan whose replay passed in this run (its SHA-256 is in "
+               "the passed report), recorded in DIR/execution.json; Ctrl-C stops the arm and waits for it to "
+               "halt");
+  rc->add_option("--speed", run.speed_fraction, "speed override on the robot, (0, 1] (default 1)")
+      ->check(CLI::Range(1e-3, 1.0));
+  rc->add_option("--robot-timeout-s", run.robot_timeout_s,
+                 "timeout of every exchange with the robot controller [s] (default 2)")
+      ->check(CLI::PositiveNumber);
   rc->add_flag("-q,--quiet", run.quiet, "no progress lines");
 
   weldtwin::ReplayCommand replay;
@@ -239,6 +257,7 @@ int main(int argc, char** argv) {
     if (rc->parsed()) {
       if (*run_seed_opt) run.seed = run_seed;
       run.renders = !no_renders;
+      run.robot_given = robot_opt->count() > 0;
       return weldtwin::run_job(run);
     }
     if (sc->parsed()) {
@@ -261,6 +280,12 @@ int main(int argc, char** argv) {
   } catch (const weldtwin::InputError& e) {
     std::fprintf(stderr, "weldtwin: %s\n", e.what());
     return 2;
+  } catch (const weldtwin::RobotError& e) {
+    std::fprintf(stderr, "weldtwin: robot: %s\n", e.what());
+    return 3;
+  } catch (const weldtwin::GateRefused& e) {
+    std::fprintf(stderr, "weldtwin: refused: %s\n", e.what());
+    return 3;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "weldtwin: internal error: %s\n", e.what());
     return 1;

@@ -242,7 +242,8 @@ nlohmann::json report_json(const RunRecord& run) {
                  {"notes", run.plan->notes},
                  {"duration_s", run.plan->duration_s()},
                  {"samples", run.plan->samples.size()},
-                 {"seams", run.plan->seams.size()}};
+                 {"seams", run.plan->seams.size()},
+                 {"sha256", run.plan_sha256}};
   }
   if (run.replay) {
     const ReplayResult& r = *run.replay;
@@ -305,6 +306,11 @@ double write_report(const RunRecord& run, const std::string& dir, bool renders) 
   if (run.replay)
     h << " — torch within " << num(1e3 * run.replay->max_seam_error_m) << " mm of the true seam";
   h << "</div>\n";
+  if (!run.plan_sha256.empty())
+    h << "<p>Plan SHA-256 <code>" << run.plan_sha256 << "</code>: "
+      << (run.passed ? "replayed and passed — the one plan <code>--execute</code> may send to a robot."
+                     : "not passed — no robot will be sent it.")
+      << "</p>\n";
   if (!run.reasons.empty()) {
     h << "<ul>";
     for (const auto& r : run.reasons) h << "<li class=\"bad\">" << html_escape(r) << "</li>";

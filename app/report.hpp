@@ -27,6 +27,7 @@ struct RunRecord {
   const PoseEstimate* pose = nullptr;
   PoseError pose_error;
   const WeldPlan* plan = nullptr;
+  std::string plan_sha256;  ///< of DIR/plan.json as written: the plan the robot gate lets through
   const ReplayResult* replay = nullptr;  ///< null when there was nothing to replay
   std::vector<std::pair<std::string, double>> stage_seconds;
   bool passed = false;

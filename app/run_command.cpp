@@ -1,6 +1,8 @@
 #include "app/run_command.hpp"
 
+#include <atomic>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -9,8 +11,10 @@
 #include "app/localize_command.hpp"
 #include "app/plan_command.hpp"
 #include "app/report.hpp"
+#include "app/robot_gate.hpp"
 #include "core/cell_spec.hpp"
 #include "core/error.hpp"
+#include "hw/robot_driver.hpp"
 #include "hw/scan_source.hpp"
 #include "perception/cloud_io.hpp"
 #include "perception/mesh_io.hpp"
@@ -19,11 +23,52 @@
 #include "sim/sweep_sim.hpp"
 
 namespace weldtwin {
+namespace {
+
+// SIGINT while the arm moves: the driver sees the flag at its next state frame, stops the arm and waits for
+// it to halt. A second SIGINT ends the process the usual way.
+std::atomic<bool> g_stop_requested{false};
+extern "C" void request_stop(int) {
+  g_stop_requested = true;
+  std::signal(SIGINT, SIG_DFL);
+}
+
+/// SIGINT stops the arm while this lives.
+struct StopOnSigint {
+  StopOnSigint() {
+    g_stop_requested = false;
+    previous = std::signal(SIGINT, request_stop);
+  }
+  ~StopOnSigint() { std::signal(SIGINT, previous); }
+  void (*previous)(int) = SIG_DFL;
+};
+
+/// DIR/execution.json: what the robot was sent and what it reported.
+void write_execution(const std::string& path, const std::string& robot, const std::string& sha256,
+                     double speed, const ExecutionLog& log, const std::string& outcome) {
+  nlohmann::json j;
+  j["robot"] = robot;
+  j["plan_sha256"] = sha256;
+  j["speed_fraction"] = speed;
+  j["samples_sent"] = log.samples_sent;
+  j["wall_s"] = log.wall_s;
+  j["outcome"] = outcome;
+  j["exchanges"] = log.exchanges;
+  nlohmann::json t = nlohmann::json::array(), q = nlohmann::json::array();
+  for (const JointState& s : log.joints) {
+    t.push_back(s.t_s);
+    q.push_back(std::vector<double>(s.q.data(), s.q.data() + s.q.size()));
+  }
+  j["joints"] = {{"t_s", t}, {"q_rad", q}};
+  std::ofstream(path) << j.dump() << '\n';
+}
+
+}  // namespace
 
 int run_job(const RunCommand& cmd) {
   using Clock = std::chrono::steady_clock;
-  auto say = [&](const char* stage, const std::string& line) {
-    if (!cmd.quiet) std::fprintf(stderr, "run: %-9s %s\n", stage, line.c_str());
+  auto say = [&](const std::string& stage, const std::string& line) {
+    if (!cmd.quiet) std::fprintf(stderr, "run: %-9s %s\n", stage.c_str(), line.c_str());
   };
   char buf[512];
   RunRecord run;
@@ -62,6 +107,26 @@ int run_job(const RunCommand& cmd) {
     assembly = robot.with_mount_offset(link, correction);
   }
   const MujocoWorld world(cell, part, real, layout);
+  // The arm: the twin, or a real controller (which sweeps a live LiDAR, and welds after the gate).
+  const bool live = cmd.source.rfind("lidar:", 0) == 0;
+  if (live && !cmd.execute)
+    throw InputError("--source " + cmd.source +
+                     ": a live sweep moves the arm: add --execute (the sweep program of " +
+                     cell.sweep_program + " is run on " + cmd.robot + ")");
+  RobotDriverSetting robot_setting;
+  robot_setting.speed_fraction = cmd.speed_fraction;
+  robot_setting.timeout_s = cmd.robot_timeout_s;
+  robot_setting.stop_request = &g_stop_requested;
+  robot_setting.realtime = live;
+  const SimRobotInputs twin_robot{&world, &part, &mesh, layout.T_base_part};
+  const std::unique_ptr<RobotDriver> driver = make_robot_driver(cmd.robot, robot, twin_robot, robot_setting);
+  const bool robot_stage = cmd.execute || cmd.robot_given;
+  const char* const of = robot_stage ? "6" : "5";
+  bool connected = false;
+  auto connect = [&] {
+    if (!connected) driver->connect();
+    connected = true;
+  };
   std::error_code ec;
   std::filesystem::create_directories(cmd.out, ec);
   if (ec) throw input_error(cmd.out, "cannot create the output directory: " + ec.message());
@@ -73,7 +138,7 @@ int run_job(const RunCommand& cmd) {
                 cell.name.c_str(), cmd.seed ? (" seed " + std::to_string(*cmd.seed)).c_str() : "",
                 part.name.c_str(), layout.T_base_part.translation().x(), layout.T_base_part.translation().y(),
                 layout.clamps.size(), layout.clutter.size(), cmd.out.c_str());
-  say("[0/5]", buf);
+  say("[0/" + std::string(of) + "]", buf);
   stage_done("setup");
 
   // 1. The sweep.
@@ -83,8 +148,26 @@ int run_job(const RunCommand& cmd) {
   sim.program = &program;
   sim.lidar = lidar;
   sim.options.threads = cmd.threads;
-  const std::unique_ptr<ScanSource> source = make_scan_source(cmd.source, robot, sim);
-  const ScanLog log = source->acquire();
+  LiveScanInputs live_inputs;
+  live_inputs.driver = driver.get();
+  live_inputs.program = &program;
+  ScanLog log;
+  const std::unique_ptr<ScanSource> source = make_scan_source(cmd.source, robot, sim, live_inputs);
+  if (live) {
+    connect();
+    say("[1/" + std::string(of) + "] scan",
+        "sweeping with " + source->describe() + " on " + driver->describe() + " (" +
+            std::to_string(static_cast<int>(program.duration_s())) + " s; Ctrl-C stops the arm)");
+    const StopOnSigint stop_on_sigint;
+    try {
+      log = source->acquire();
+    } catch (const RobotError& e) {
+      std::printf("FAIL: robot during the sweep: %s\n", e.what());
+      return g_stop_requested ? 130 : 3;
+    }
+  } else {
+    log = source->acquire();
+  }
   log.write(cmd.out +
             "/scan.scanlog");  // every run keeps its sweep: `--source log:DIR/scan.scanlog` replays it
   AssembledCloud cloud;
@@ -101,7 +184,7 @@ int run_job(const RunCommand& cmd) {
   const double sweep_s = log.samples.empty() ? 0.0 : log.samples.back().t_s - log.samples.front().t_s;
   std::snprintf(buf, sizeof buf, "%.1f s sweep from %s, %zu points (%.2f s)", sweep_s,
                 source->describe().c_str(), cloud.points_base.size(), stage_done("sweep"));
-  say("[1/5] scan", buf);
+  say("[1/" + std::string(of) + "] scan", buf);
 
   // 2. Localization, judged against the truth only the twin knows.
   const PoseEstimate pose = localize(cloud.points_base, mesh, LocalizeSetting(), part.seam_points(0.001));
@@ -116,7 +199,7 @@ int run_job(const RunCommand& cmd) {
                 "%s: fitness %.2f, coverage %.2f, seam error %.3f mm against the truth (%.2f s)",
                 pose.found ? "found" : ("NOT found: " + pose.reason).c_str(), pose.fitness, pose.coverage,
                 1e3 * run.pose_error.seam_max_m, stage_done("localize"));
-  say("[2/5] find", buf);
+  say("[2/" + std::string(of) + "] find", buf);
 
   // 3. The plan, at the pose found, avoiding what the twin knows of the cell.
   PlanSetting plan_setting;
@@ -128,6 +211,7 @@ int run_job(const RunCommand& cmd) {
     plan_setting.collision = checker;
     plan = plan_welds(part, pose.T_base_part, robot, plan_setting);
     std::ofstream(cmd.out + "/plan.json") << plan_to_json(plan, part, robot, plan_setting).dump() << '\n';
+    run.plan_sha256 = sha256_of_file(cmd.out + "/plan.json");
   }
   run.plan = &plan;
   std::snprintf(buf, sizeof buf, "%s%zu seams, %.1f s, %zu samples (%.2f s)",
@@ -135,7 +219,7 @@ int run_job(const RunCommand& cmd) {
                 : plan.ok() ? ""
                             : ("NOT planned: " + plan.problems.front() + "; ").c_str(),
                 plan.seams.size(), plan.duration_s(), plan.samples.size(), stage_done("plan"));
-  say("[3/5] plan", buf);
+  say("[3/" + std::string(of) + "] plan", buf);
 
   // 4. The replay.
   ReplayResult replay;
@@ -150,7 +234,7 @@ int run_job(const RunCommand& cmd) {
   } else {
     std::snprintf(buf, sizeof buf, "skipped: nothing to replay (%.2f s)", stage_done("replay"));
   }
-  say("[4/5] replay", buf);
+  say("[4/" + std::string(of) + "] replay", buf);
 
   // Verdict.
   if (!pose.found) run.reasons.push_back("part not found: " + pose.reason);
@@ -163,15 +247,64 @@ int run_job(const RunCommand& cmd) {
   const double report_s = write_report(run, cmd.out, cmd.renders);
   stage_done("report");
   std::snprintf(buf, sizeof buf, "%s/report.html (%.2f s)", cmd.out.c_str(), report_s);
-  say("[5/5] report", buf);
+  say("[5/" + std::string(of) + "] report", buf);
+
+  // 6. The robot: a dry run, or — through the gate — the plan executed.
+  std::string executed;
+  if (robot_stage) {
+    const std::string stage = "[6/6] robot";
+    if (!cmd.execute) {
+      if (!run.passed) {
+        say(stage, "dry run: nothing would be sent (the run did not pass)");
+      } else {
+        const JointTrajectory t = plan_trajectory(plan, cmd.out + "/plan.json");
+        std::ofstream(cmd.out + "/robot_dry_run.json") << driver->dry_run(t) << '\n';
+        std::snprintf(buf, sizeof buf,
+                      "dry run: %zu samples (%.1f s at speed %.2f) would go to %s; requests in "
+                      "%s/robot_dry_run.json; --execute sends them",
+                      t.q.size(), t.duration_s() / cmd.speed_fraction, cmd.speed_fraction,
+                      driver->describe().c_str(), cmd.out.c_str());
+        say(stage, buf);
+      }
+    } else {
+      GatedPlan gated;
+      try {
+        gated = open_gate(cmd.out);
+      } catch (const GateRefused& e) {
+        std::printf("FAIL: --execute refused: %s; nothing was sent to %s; report %s/report.html\n", e.what(),
+                    driver->describe().c_str(), cmd.out.c_str());
+        return 3;
+      }
+      say(stage, "plan " + gated.sha256.substr(0, 12) + " passed its replay: executing on " +
+                     driver->describe() + " (Ctrl-C stops the arm)");
+      ExecutionLog exec;
+      try {
+        connect();
+        const StopOnSigint stop_on_sigint;
+        exec = driver->execute(gated.trajectory);
+      } catch (const RobotError& e) {
+        write_execution(cmd.out + "/execution.json", driver->describe(), gated.sha256, cmd.speed_fraction,
+                        exec, e.what());
+        std::printf("FAIL: robot: %s; record %s/execution.json\n", e.what(), cmd.out.c_str());
+        return g_stop_requested ? 130 : 3;
+      }
+      write_execution(cmd.out + "/execution.json", driver->describe(), gated.sha256, cmd.speed_fraction, exec,
+                      "completed");
+      std::snprintf(buf, sizeof buf, "executed %zu samples in %.1f s; record %s/execution.json",
+                    exec.samples_sent, exec.wall_s, cmd.out.c_str());
+      say(stage, buf);
+      executed = "; executed on " + driver->describe();
+    }
+  }
 
   double total = 0.0;
   for (const auto& [name, s] : run.stage_seconds) total += s;
   if (run.passed) {
     std::printf(
-        "PASS: every arc-on torch position within %.3f mm of the true seam (max; %s); report %s/report.html "
+        "PASS: every arc-on torch position within %.3f mm of the true seam (max; %s)%s; report "
+        "%s/report.html "
         "(%.1f s)\n",
-        1e3 * replay.max_seam_error_m, "limit 1 mm", cmd.out.c_str(), total);
+        1e3 * replay.max_seam_error_m, "limit 1 mm", executed.c_str(), cmd.out.c_str(), total);
     return 0;
   }
   std::printf("FAIL: %s; report %s/report.html (%.1f s)\n", run.reasons.front().c_str(), cmd.out.c_str(),

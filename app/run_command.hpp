@@ -20,9 +20,15 @@ struct RunCommand {
   std::vector<double> mount_error_mm, mount_error_deg;  ///< twin only: the LiDAR's real mount is off by this
   std::string
       lidar_mount;  ///< mount JSON of weldtwin calibrate: the scan is assembled with the corrected mount
+  std::string robot = "sim";     ///< sim | aubo://HOST (hw/robot_driver.hpp): the arm that sweeps and welds
+  bool robot_given = false;      ///< --robot on the command line: show the dry run (or execute)
+  bool execute = false;          ///< send the passed plan to the robot (and let a live sweep move the arm)
+  double speed_fraction = 1.0;   ///< speed override on the robot
+  double robot_timeout_s = 2.0;  ///< every exchange with the robot controller
 };
 
-/// Returns the exit code: 0 PASS, 3 FAIL (the report says why). Throws InputError for bad input.
+/// Returns the exit code: 0 PASS, 3 FAIL (the report says why; also a refused gate or a robot error),
+/// 130 stopped by SIGINT. Throws InputError for bad input.
 int run_job(const RunCommand& cmd);
 
 struct ReplayCommand {

@@ -312,7 +312,8 @@ void RplidarDevice::stop() {
   write_all(rplidar::request(rplidar::kStop));
 }
 
-void RplidarDevice::read_turns(bool express, int turns, ScanLog& log, double t0_s) {
+void RplidarDevice::read_turns(bool express, int turns, ScanLog& log, double t0_s,
+                               const std::atomic<bool>* until) {
   tcflush(fd_, TCIFLUSH);
   if (express)
     write_all(rplidar::request(rplidar::kExpressScan, {0, 0, 0, 0, 0}));
@@ -352,7 +353,7 @@ void RplidarDevice::read_turns(bool express, int turns, ScanLog& log, double t0_
     turn_start = t_end;
   };
   uint8_t buf[4096];
-  while (done < turns) {
+  while (done < turns && !(until && until->load())) {
     const size_t n = read_some(buf, sizeof buf);
     const double t = now();
     if (express)

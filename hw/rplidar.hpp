@@ -7,6 +7,7 @@
 // Angles come out as the ScanLog has them: counter-clockwise radians (the device counts clockwise degrees).
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -104,9 +105,11 @@ class RplidarDevice {
   /// SET_MOTOR_PWM (the A2's accessory board); 0 stops the motor.
   void set_motor_pwm(int pwm);
   /// Starts SCAN or EXPRESS_SCAN and reads `turns` whole turns (the partial turn before the first start
-  /// flag is dropped), timestamping each turn's samples evenly between its start and the next turn's on the
-  /// host's steady clock, seconds from `t0`. Throws on silence longer than the timeout or a closed device.
-  void read_turns(bool express, int turns, ScanLog& log, double t0_s);
+  /// flag is dropped), or until `*until` is set, timestamping each turn's samples evenly between its start
+  /// and the next turn's on the host's steady clock, seconds from `t0`. Throws on silence longer than the
+  /// timeout or a closed device.
+  void read_turns(bool express, int turns, ScanLog& log, double t0_s,
+                  const std::atomic<bool>* until = nullptr);
   /// STOP.
   void stop();
   size_t skipped_bytes() const { return skipped_; }

@@ -2,7 +2,8 @@
 //   sim        the twin's simulated sweep of the cell;
 //   log:FILE   a recorded sweep: our ScanLog (.scanlog), a ROS 1 bag (.bag) or a ROS 2 bag (its directory or
 //              .db3 file), told apart by their content;
-//   lidar:DEV  a live RPLIDAR A2 on a serial port (not built yet: refused with a clear message).
+//   lidar:DEV  a live RPLIDAR A2 on a serial port, scanning while the robot driver runs the sweep program;
+//              samples and joint states are stamped on one clock (the host's), as they arrive.
 // The perception and planning code downstream does not know which one it got.
 #pragma once
 
@@ -27,6 +28,17 @@ struct SimScanInputs {
   SweepOptions options;
 };
 
+class RobotDriver;
+
+/// What the `lidar:` source needs: the arm that carries the LiDAR through the sweep (connected).
+struct LiveScanInputs {
+  RobotDriver* driver = nullptr;
+  const SweepProgram* program = nullptr;
+  bool express = true;     ///< EXPRESS_SCAN (4000 samples/s on the A2) or SCAN (2000)
+  double spinup_s = 2.0;   ///< the motor's time to reach a steady speed before the sweep starts
+  double timeout_s = 1.0;  ///< silence from the device longer than this is an error
+};
+
 class ScanSource {
  public:
   virtual ~ScanSource() = default;
@@ -39,9 +51,10 @@ class ScanSource {
 };
 
 /// The source named by `spec` (sim | log:FILE | lidar:DEV). `robot` orders the joints of recorded bags; `sim`
-/// is used by the `sim` source only. Throws InputError for an unknown kind or a lidar: source.
+/// is used by the `sim` source only, `live` by `lidar:` only. Throws InputError for an unknown kind, or a
+/// lidar: source without a robot driver.
 std::unique_ptr<ScanSource> make_scan_source(const std::string& spec, const RobotModel& robot,
-                                             const SimScanInputs& sim);
+                                             const SimScanInputs& sim, const LiveScanInputs& live = {});
 
 /// Reads a recorded sweep of any of the log formats (told apart by content).
 ScanLog read_any_scan_log(const std::string& path, const RobotModel& robot);

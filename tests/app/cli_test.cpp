@@ -192,7 +192,10 @@ TEST(Cli, RunFromRecordedBagsMatchesTheLiveRun) {
     EXPECT_EQ(pose_of(dir / (std::string("from_") + log)), pose_of(dir / "live")) << log;
   }
   expect_bad_input(weldtwin("run --no-renders -q --source lidar:/dev/ttyUSB7 --out " + (dir / "x").string()),
-                   "not built yet");
+                   "a live sweep moves the arm: add --execute");
+  expect_bad_input(
+      weldtwin("run --no-renders -q --execute --source lidar:/dev/ttyUSB7 --out " + (dir / "x").string()),
+      "/dev/ttyUSB7: cannot open the RPLIDAR's port");
   expect_bad_input(weldtwin("run --no-renders -q --source log:" + (dir / "nothing.bag").string() + " --out " +
                             (dir / "x").string()),
                    "nothing.bag");

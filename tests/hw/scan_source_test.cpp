@@ -131,7 +131,8 @@ TEST(ScanSource, BadInputIsRefusedNamingTheFile) {
   refused("log:" + (d / "missing.bag").string(), "no such file");
   fs::create_directories(d / "empty_ros2");
   refused("log:" + (d / "empty_ros2").string(), "without a .db3");
-  refused("lidar:/dev/ttyUSB9", "not built yet");
+  refused("lidar:/dev/ttyUSB9", "needs the arm that carries the LiDAR");
+  refused("lidar:", "needs a serial port");
   refused("camera", "not sim, log:FILE or lidar:DEV");
   // A bag without joint states.
   ScanLog no_joints = r.live;
