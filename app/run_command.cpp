@@ -281,7 +281,16 @@ int run_job(const RunCommand& cmd) {
       try {
         connect();
         const StopOnSigint stop_on_sigint;
-        exec = driver->execute(gated.trajectory);
+        // A line every 5 s of a long weld.
+        double next_line = 5.0;
+        const double total_s = gated.trajectory.duration_s() / cmd.speed_fraction;
+        exec = driver->execute(gated.trajectory, [&](double, const JointState& js) {
+          if (js.t_s < next_line) return;
+          next_line += 5.0;
+          char line[128];
+          std::snprintf(line, sizeof line, "executing: %.0f s of %.0f s", js.t_s, total_s);
+          say(stage, line);
+        });
       } catch (const RobotError& e) {
         write_execution(cmd.out + "/execution.json", driver->describe(), gated.sha256, cmd.speed_fraction,
                         exec, e.what());
