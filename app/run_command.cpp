@@ -201,8 +201,19 @@ int run_job(const RunCommand& cmd) {
                 1e3 * run.pose_error.seam_max_m, stage_done("localize"));
   say("[2/" + std::string(of) + "] find", buf);
 
-  // 3. The plan, at the pose found, avoiding what the twin knows of the cell.
+  // 3. The plan, at the pose found, avoiding what the twin knows of the cell — from where the arm stands,
+  // when a real one is to execute it.
   PlanSetting plan_setting;
+  if (cmd.execute && cmd.robot != "sim" && pose.found) {
+    connect();
+    const JointVector q_now = driver->joint_positions();
+    if (!robot.within_limits(q_now))
+      throw InputError(driver->describe() + ": the arm reports joints outside the URDF's limits");
+    if ((q_now - plan_setting.home).cwiseAbs().maxCoeff() > 1e-3) {
+      plan_setting.start = q_now;
+      say("[3/" + std::string(of) + "] plan", "from where the arm stands (not home): " + driver->describe());
+    }
+  }
   WeldPlan plan;
   if (pose.found) {
     // The table, clamps and clutter as the twin has them; the part where it was found.

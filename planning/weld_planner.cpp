@@ -61,7 +61,7 @@ class Builder {
         ik_(robot, "tcp"),
         set_(setting),
         plan_(plan),
-        q_(setting.home),
+        q_(setting.start.value_or(setting.home)),
         dt_(1.0 / setting.sample_hz) {}
 
   const AuboIk& ik() const { return ik_; }
@@ -473,7 +473,8 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
                       robot.forward_kinematics(zero, robot.require_link("tcp"));
   Builder b(robot, setting, plan);
   plan.samples.reserve(32768);
-  plan.samples.push_back({0.0, setting.home, b.ik().fk(setting.home), -1, false, Phase::kTransit});
+  const JointVector first = setting.start.value_or(setting.home);
+  plan.samples.push_back({0.0, first, b.ik().fk(first), -1, false, Phase::kTransit});
 
   bool at_corner = false;  // the TCP stands at the start of the next seam with the arc on
   int branch = -1;

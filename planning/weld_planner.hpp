@@ -9,6 +9,7 @@
 #pragma once
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,9 @@ struct PlanSetting {
   double min_margin_rad = deg2rad(3);  ///< joint-limit margin a free-roll choice must keep
   double min_singularity_sine = 0.08;  ///< how far (IkSolution margins) a choice must stay from singularities
   JointVector home = (JointVector() << 0, 0, kPi / 2, 0, kPi / 2, 0).finished();  ///< start and end [rad]
+  /// Where the arm stands when the plan begins, if not at home (a real arm after its sweep): the plan's
+  /// first transit starts there, so the replay (and the gate) covers the way from there too.
+  std::optional<JointVector> start;
   /// What the arm at q collides with ("" when free; `welding`: the arc is on, the torch is meant to be close
   /// to the part), from whoever knows the cell (the twin's CollisionChecker). When set, IK branches and torch
   /// rolls whose stations, approaches or departures collide are not chosen, and a transit that would collide

@@ -14,6 +14,7 @@
 
 #include "app/robot_gate.hpp"
 #include "planning/weld_planner.hpp"
+#include "sim/sweep_program.hpp"
 #include "tests/support/fake_aubo.hpp"
 #include "tests/test_support.hpp"
 
@@ -100,6 +101,23 @@ TEST(RobotCli, ExecuteSendsThePassedPlanSampleForSample) {
   EXPECT_EQ(record["plan_sha256"], sum);
   EXPECT_EQ(record["outcome"], "completed");
   EXPECT_GT(record["joints"]["t_s"].size(), 20u);
+}
+
+TEST(RobotCli, AnArmAwayFromHomeIsPlannedAndReplayedFromWhereItStands) {
+  const fs::path dir = temp_dir("away");
+  test::FakeAuboSetting s = at_home(100.0);
+  s.start_q = SweepProgram::load(test::repo("scenes/sweeps/default.yaml"),
+                                 RobotModel::load(test::repo("scenes/robots/aubo_i5.urdf")))
+                  .start();  // where a sweep leaves it... or starts: anywhere but home
+  test::FakeAubo controller(s);
+  const Child c = start(
+      "--no-renders -q --robot " + controller.spec() + " --execute --out " + (dir / "run").string(), dir);
+  ASSERT_EQ(finish(c), 0) << slurp(c.out) << slurp(c.err);
+  const nlohmann::json plan = nlohmann::json::parse(slurp(dir / "run/plan.json"));
+  for (int j = 0; j < 6; ++j)
+    EXPECT_EQ(plan["samples"][0]["q"][static_cast<size_t>(j)].get<double>(), s.start_q[j]) << j;
+  EXPECT_EQ(controller.path().size(), plan["samples"].size());
+  EXPECT_TRUE(controller.protocol_errors().empty()) << controller.protocol_errors().front();
 }
 
 TEST(RobotCli, ExecuteIsRefusedWithoutAPassedReplay) {
