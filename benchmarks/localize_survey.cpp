@@ -84,7 +84,18 @@ struct Trial {
   PoseError ours_err, paper_err;
   std::vector<std::pair<std::string, PoseEstimate>> impostors;  // must all be refused
   size_t points = 0;
+  // Ours' position error in the base frame: along the line from the robot's base axis to the part (negative:
+  // towards the robot, where the LiDAR looks from) and across it (counter-clockwise) [m].
+  double radial_m = 0.0, tangential_m = 0.0;
 };
+
+/// The base-frame position error split into radial and tangential parts (see Trial).
+void split_error(const Iso3& found, const Iso3& truth, double& radial, double& tangential) {
+  const Vec3 e = found.translation() - truth.translation();
+  const Eigen::Vector2d out = truth.translation().head<2>().normalized();
+  radial = e.head<2>().dot(out);
+  tangential = out.x() * e.y() - out.y() * e.x();
+}
 
 bool success(const PoseEstimate& p, const PoseError& e) {
   return p.found && e.seam_max_m <= 1e-3 && e.rotation_rad <= deg2rad(0.5);
@@ -240,6 +251,9 @@ int main(int argc, char** argv) {
                        rad2deg(t.paper_err.rotation_rad), t.paper.seconds);
         {
           const Iso3 D = scan_truth_of[i].inverse() * t.ours.T_base_part;
+          split_error(t.ours.T_base_part, scan_truth_of[i], t.radial_m, t.tangential_m);
+          std::fprintf(stderr, " [base-frame error radial %.2f tangential %.2f mm]", 1e3 * t.radial_m,
+                       1e3 * t.tangential_m);
           std::fprintf(stderr, " [part-frame error %.2f %.2f %.2f mm]", 1e3 * D.translation().x(),
                        1e3 * D.translation().y(), 1e3 * D.translation().z());
         }
@@ -260,7 +274,7 @@ int main(int argc, char** argv) {
     if (!csv.empty()) {
       std::ofstream out(csv);
       out << "part,seed,points,ours_found,ours_reason,ours_seam_max_mm,ours_seam_mean_mm,ours_rot_deg,ours_s,"
-             "paper_seam_max_mm,paper_rot_deg,paper_s,false_accepts\n";
+             "paper_seam_max_mm,paper_rot_deg,paper_s,false_accepts,ours_radial_mm,ours_tangential_mm\n";
       for (const Trial& t : trials) {
         int fa = 0;
         for (const auto& im : t.impostors) fa += im.second.found;
@@ -268,7 +282,7 @@ int main(int argc, char** argv) {
             << t.ours.reason << "\"," << 1e3 * t.ours_err.seam_max_m << ',' << 1e3 * t.ours_err.seam_mean_m
             << ',' << rad2deg(t.ours_err.rotation_rad) << ',' << t.ours.seconds << ','
             << 1e3 * t.paper_err.seam_max_m << ',' << rad2deg(t.paper_err.rotation_rad) << ','
-            << t.paper.seconds << ',' << fa << '\n';
+            << t.paper.seconds << ',' << fa << ',' << 1e3 * t.radial_m << ',' << 1e3 * t.tangential_m << '\n';
       }
     }
     std::printf("%-15s %7s %9s %8s %8s %8s %8s %8s %9s %9s %8s\n", "part (method)", "trials", "success",
@@ -305,6 +319,30 @@ int main(int argc, char** argv) {
         "absent/wrong-part "
         "cases\n",
         total_false, total_impostors);
+    // A bias shows as a mean position error with a small spread: its direction says where it comes from
+    // (radial: towards or away from the robot, which the LiDAR looks from).
+    for (size_t p = 0; p < parts.size(); ++p) {
+      std::vector<double> radial, tangential;
+      for (const Trial& t : trials)
+        if (t.part == p && t.ours.found)
+          radial.push_back(1e3 * t.radial_m), tangential.push_back(1e3 * t.tangential_m);
+      if (radial.size() < 2) continue;
+      auto mean_sd = [](const std::vector<double>& v, double& mean, double& sd) {
+        mean = 0.0;
+        for (double x : v) mean += x;
+        mean /= static_cast<double>(v.size());
+        sd = 0.0;
+        for (double x : v) sd += (x - mean) * (x - mean);
+        sd = std::sqrt(sd / static_cast<double>(v.size() - 1));
+      };
+      double rm, rs, tm, ts;
+      mean_sd(radial, rm, rs);
+      mean_sd(tangential, tm, ts);
+      std::printf(
+          "%s (ours), base-frame position error: radial %+.3f mm (sd %.3f; negative: towards the robot), "
+          "tangential %+.3f mm (sd %.3f)\n",
+          parts[p].part.name.c_str(), rm, rs, tm, ts);
+    }
     // Per-stage time of ours (median over all trials) and the two methods' time ratio on the same scans.
     std::map<std::string, std::vector<double>> stages;
     std::vector<double> ratio;
