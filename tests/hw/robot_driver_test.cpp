@@ -120,7 +120,8 @@ TEST(AuboDriver, TheControllerReceivesTheTrajectorySampleForSample) {
     EXPECT_GE(log.joints[k].q[0], log.joints[k - 1].q[0] - 1e-12);  // joint 1 only rises along this move
   }
   EXPECT_LT((log.joints.back().q - t.q.back()).norm(), 1e-9);
-  EXPECT_NEAR(log.wall_s, 1.0, 0.3);
+  EXPECT_GT(log.wall_s, 0.95);  // at full speed it would take 0.5 s
+  EXPECT_LT(log.wall_s, 3.0);
   EXPECT_EQ(host_times.size(), log.joints.size());
 }
 
