@@ -282,8 +282,8 @@ int run_job(const RunCommand& cmd) {
       try {
         gated = open_gate(cmd.out);
       } catch (const GateRefused& e) {
-        std::printf("FAIL: --execute refused: %s; nothing was sent to %s; report %s/report.html\n", e.what(),
-                    driver->describe().c_str(), cmd.out.c_str());
+        std::printf("FAIL: --execute refused: %s; the plan was not sent to %s; report %s/report.html\n",
+                    e.what(), driver->describe().c_str(), cmd.out.c_str());
         return 3;
       }
       say(stage, "plan " + gated.sha256.substr(0, 12) + " passed its replay: executing on " +

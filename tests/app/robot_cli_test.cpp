@@ -2,20 +2,24 @@
 // fake controller on loopback sends the plan of DIR/plan.json sample for sample (its SHA-256, checked with
 // sha256sum, named by the passed report), planned and replayed from where the arm stands; a run whose replay
 // failed is refused with nothing sent that moves the arm; a controller fault ends in exit 3 with the record
-// kept; Ctrl-C mid-weld stops the arm, exit 130. The gate itself: a plan changed after its replay, a failed or
-// missing report — refused.
+// kept; Ctrl-C mid-weld stops the arm, exit 130; a live sweep (fake A2 + fake controller) runs the sweep
+// program on the arm and is kept as a recording. The gate itself: a plan changed after its replay, a failed
+// or missing report — refused.
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "app/robot_gate.hpp"
+#include "core/scan_log.hpp"
 #include "planning/weld_planner.hpp"
 #include "sim/sweep_program.hpp"
+#include "tests/support/fake_a2.hpp"
 #include "tests/support/fake_aubo.hpp"
 #include "tests/test_support.hpp"
 
@@ -131,7 +135,7 @@ TEST(RobotCli, ExecuteIsRefusedWithoutAPassedReplay) {
   EXPECT_EQ(finish(c), 3) << slurp(c.err);
   const std::string out = slurp(c.out);
   EXPECT_NE(out.find("FAIL: --execute refused: the run did not pass"), std::string::npos) << out;
-  EXPECT_NE(out.find("nothing was sent to aubo://127.0.0.1"), std::string::npos) << out;
+  EXPECT_NE(out.find("the plan was not sent to aubo://127.0.0.1"), std::string::npos) << out;
   // The arm's state was read (to plan from where it stands); nothing that moves it was sent.
   for (const std::string& m : controller.methods())
     EXPECT_TRUE(m == "login" || m == "logout" || m.rfind("rob1.RobotState.", 0) == 0) << m;
@@ -172,6 +176,35 @@ TEST(RobotCli, CtrlCMidWeldStopsTheArm) {
   EXPECT_LT(controller.progress(), 0.2);
   EXPECT_NE(slurp(c.out).find("stopped on request (SIGINT); stop sent, the arm halted"), std::string::npos)
       << slurp(c.out);
+}
+
+TEST(RobotCli, ALiveSweepMovesTheArmAndIsRecorded) {
+  const fs::path dir = temp_dir("live");
+  const RobotModel robot = RobotModel::load(test::repo("scenes/robots/aubo_i5.urdf"));
+  const SweepProgram program = SweepProgram::load(test::repo("scenes/sweeps/default.yaml"), robot);
+  test::FakeAuboSetting s = at_home(100.0);  // the 181 s sweep in under 2 s
+  s.start_q = program.start();
+  test::FakeAubo controller(s);
+  test::FakeA2 lidar;  // a LiDAR that sees a 1.0-1.4 m ring: no table, no part
+  const Child c = start("--no-renders -q --source lidar:" + lidar.port() + " --robot " + controller.spec() +
+                            " --execute --out " + (dir / "run").string(),
+                        dir);
+  EXPECT_EQ(finish(c), 3) << slurp(c.err);
+  EXPECT_NE(slurp(c.out).find("the run did not pass (part not found: no table plane in the scan)"),
+            std::string::npos)
+      << slurp(c.out) << slurp(c.err);
+  // The controller ran the sweep program (and nothing else: no part, no plan).
+  const size_t samples = static_cast<size_t>(std::ceil(program.duration_s() / 0.005)) + 1;
+  EXPECT_EQ(controller.path().size(), samples);
+  EXPECT_TRUE(controller.protocol_errors().empty()) << controller.protocol_errors().front();
+  // The sweep is kept as a cell recording with the controller's joint states.
+  const ScanLog log = ScanLog::read((dir / "run/scan.scanlog").string());
+  EXPECT_EQ(log.source, "cell");
+  EXPECT_GT(log.joints.size(), 100u);
+  EXPECT_GT(log.turns.size(), 10u);
+  EXPECT_LT((log.joints.back().q - program.q(program.duration_s())).norm(), 1e-6);
+  EXPECT_GT(lidar.stops(), 0);
+  EXPECT_EQ(lidar.last_pwm(), 0);  // the motor stopped
 }
 
 TEST(RobotGate, OnlyThePlanOfAPassedReplayGetsThrough) {
