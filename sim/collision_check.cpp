@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <optional>
 
@@ -173,7 +174,7 @@ struct CollisionChecker::State {
   DataPtr data;
 };
 
-CollisionChecker::CollisionChecker(const MujocoWorld& world, double margin_m)
+CollisionChecker::CollisionChecker(const MujocoWorld& world, double margin_m, double torch_clearance_m)
     : state_(std::make_shared<State>()) {
   install_mujoco_handlers();
   state_->world = &world;
@@ -182,6 +183,18 @@ CollisionChecker::CollisionChecker(const MujocoWorld& world, double margin_m)
   for (int g = 0; g < m->ngeom; ++g) {
     if (world.geom_label(g) == Label::kPart) m->geom_contype[g] = m->geom_conaffinity[g] = 0;
     if (world.geom_label(g) == Label::kRobot) m->geom_margin[g] = margin_m;
+    const char* name = mj_id2name(m, mjOBJ_GEOM, g);
+    if (torch_clearance_m > 0 && name && std::strncmp(name, "torch_", 6) == 0) {
+      double* size = m->geom_size + 3 * g;
+      const int type = m->geom_type[g];
+      if (type == mjGEOM_BOX || type == mjGEOM_ELLIPSOID)
+        for (int k = 0; k < 3; ++k) size[k] += torch_clearance_m;
+      else if (type == mjGEOM_CYLINDER || type == mjGEOM_CAPSULE)
+        size[0] += torch_clearance_m, size[1] += torch_clearance_m;
+      else if (type == mjGEOM_SPHERE)
+        size[0] += torch_clearance_m;
+      m->geom_rbound[g] += 2 * torch_clearance_m;  // the broad phase's bounding sphere
+    }
   }
   state_->data.reset(mj_makeData(m));
 }

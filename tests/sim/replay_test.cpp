@@ -108,6 +108,41 @@ TEST(Replay, APlanFromAPoseTwoMillimetresOffMissesTheSeamsByThatMuch) {
   EXPECT_TRUE(named);
 }
 
+TEST(CollisionChecker, KeepsTheTorchAMillimetreFromTheCell) {
+  const test::Cell cell;
+  const CollisionChecker plain(*cell.world, 0.0, 0.0), grown(*cell.world);
+  // From home, one joint turned until the torch (and nothing else) meets the cell; the boundary of each
+  // checker by bisection.
+  const JointVector home = PlanSetting().home;
+  JointVector down = home;
+  bool found = false;
+  for (int j = 1; j < 6 && !found; ++j)
+    for (const double step : {0.02, -0.02}) {
+      down = home;
+      while (plain(down).empty() && std::abs(down[j] - home[j]) < 2.5) down[j] += step;
+      if ((found = plain(down).rfind("torch_", 0) == 0)) break;
+    }
+  ASSERT_TRUE(found);
+  auto boundary = [&](const CollisionChecker& c) {
+    double lo = 0.0, hi = 1.0;
+    for (int k = 0; k < 40; ++k) {
+      const double mid = 0.5 * (lo + hi);
+      (c(home + mid * (down - home)).empty() ? lo : hi) = mid;
+    }
+    return lo;
+  };
+  const double t_plain = boundary(plain), t_grown = boundary(grown);
+  ASSERT_LT(t_grown, t_plain);
+  // The torch's tip stops short by about the clearance (more, as it does not approach the table head on).
+  const int tcp = cell.robot.require_link("tcp");
+  const double short_m = (cell.robot.forward_kinematics(home + t_plain * (down - home), tcp).translation() -
+                          cell.robot.forward_kinematics(home + t_grown * (down - home), tcp).translation())
+                             .norm();
+  EXPECT_GT(short_m, 0.001);
+  EXPECT_LT(short_m, 0.004);
+  EXPECT_NE(grown(home + 0.5 * (t_grown + t_plain) * (down - home)).find("torch_"), std::string::npos);
+}
+
 TEST(Replay, APlanThroughAClampFailsWithTheClampNamed) {
   const test::Cell cell;
   ASSERT_FALSE(cell.layout.clamps.empty());
