@@ -258,6 +258,14 @@ class AuboDriver : public RobotDriver {
     } catch (const std::exception& e) {
       abort_motion(std::string("movePathBuffer failed: ") + e.what());
     }
+    // Every state frame is kept, and shown to `on_state`.
+    auto record = [&](double now) {
+      JointState js;
+      js.t_s = now - t0;
+      js.q = frame_.q;
+      if (log.joints.empty() || js.t_s > log.joints.back().t_s) log.joints.push_back(js);
+      if (on_state) on_state(now, js);
+    };
     double last_frame = host_seconds(), last_poll = 0.0;
     for (;;) {
       if (set_.stop_request && set_.stop_request->load()) abort_motion("stopped on request (SIGINT)");
@@ -270,11 +278,7 @@ class AuboDriver : public RobotDriver {
       const double now = host_seconds();
       if (got) {
         last_frame = now;
-        JointState js;
-        js.t_s = now - t0;
-        js.q = frame_.q;
-        if (log.joints.empty() || js.t_s > log.joints.back().t_s) log.joints.push_back(js);
-        if (on_state) on_state(now, js);
+        record(now);
         if (frame_.safety_mode != "Normal")
           abort_motion("controller fault: safety mode " + frame_.safety_mode);
         if (frame_.robot_mode != "Running") abort_motion("controller fault: robot mode " + frame_.robot_mode);
@@ -295,12 +299,20 @@ class AuboDriver : public RobotDriver {
     }
     log.wall_s = host_seconds() - t0;
     free_buffer();
-    // Where the arm came to rest (the frames may lag the controller's motion id by a period).
-    double end_off = 0.0;
-    for (const double t_end = host_seconds(); host_seconds() - t_end < set_.timeout_s;) {
-      if (!latest_frame(0.02)) continue;
-      end_off = (frame_.q - t.q.back()).cwiseAbs().maxCoeff();
-      if (end_off <= set_.start_tolerance_rad && frame_.qd.cwiseAbs().maxCoeff() < kHaltedVelocity) break;
+    // Where the arm came to rest (the frames may lag the controller's motion id by a period): every frame up
+    // to the arm standing at the path's end is kept too.
+    double end_off = 1e9;
+    try {
+      for (const double t_end = host_seconds(); host_seconds() - t_end < set_.timeout_s;) {
+        if (!next_frame(0.02)) continue;
+        record(host_seconds());
+        end_off = (frame_.q - t.q.back()).cwiseAbs().maxCoeff();
+        if (end_off <= set_.start_tolerance_rad && frame_.qd.cwiseAbs().maxCoeff() < kHaltedVelocity) break;
+      }
+    } catch (const LinkError& e) {
+      throw RobotError(describe() +
+                       ": the path ran, but the state stream failed before the arm was seen at rest (" +
+                       e.what() + ")");
     }
     if (end_off > set_.start_tolerance_rad) {
       char b[200];
