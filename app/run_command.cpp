@@ -121,7 +121,10 @@ int run_job(const RunCommand& cmd) {
   const SimRobotInputs twin_robot{&world, &part, &mesh, layout.T_base_part};
   const std::unique_ptr<RobotDriver> driver = make_robot_driver(cmd.robot, robot, twin_robot, robot_setting);
   const bool robot_stage = cmd.execute || cmd.robot_given;
-  const char* const of = robot_stage ? "6" : "5";
+  // Progress lines: "[k/5] name", or "[k/6] name" when a robot stage follows.
+  auto step = [&](int k, const char* name) {
+    return "[" + std::to_string(k) + "/" + (robot_stage ? "6" : "5") + "]" + (*name ? " " : "") + name;
+  };
   bool connected = false;
   auto connect = [&] {
     if (!connected) driver->connect();
@@ -138,7 +141,7 @@ int run_job(const RunCommand& cmd) {
                 cell.name.c_str(), cmd.seed ? (" seed " + std::to_string(*cmd.seed)).c_str() : "",
                 part.name.c_str(), layout.T_base_part.translation().x(), layout.T_base_part.translation().y(),
                 layout.clamps.size(), layout.clutter.size(), cmd.out.c_str());
-  say("[0/" + std::string(of) + "]", buf);
+  say(step(0, ""), buf);
   stage_done("setup");
 
   // 1. The sweep.
@@ -155,9 +158,9 @@ int run_job(const RunCommand& cmd) {
   const std::unique_ptr<ScanSource> source = make_scan_source(cmd.source, robot, sim, live_inputs);
   if (live) {
     connect();
-    say("[1/" + std::string(of) + "] scan",
-        "sweeping with " + source->describe() + " on " + driver->describe() + " (" +
-            std::to_string(static_cast<int>(program.duration_s())) + " s; Ctrl-C stops the arm)");
+    say(step(1, "scan"), "sweeping with " + source->describe() + " on " + driver->describe() + " (" +
+                             std::to_string(static_cast<int>(program.duration_s())) +
+                             " s; Ctrl-C stops the arm)");
     const StopOnSigint stop_on_sigint;
     try {
       log = source->acquire();
@@ -184,7 +187,7 @@ int run_job(const RunCommand& cmd) {
   const double sweep_s = log.samples.empty() ? 0.0 : log.samples.back().t_s - log.samples.front().t_s;
   std::snprintf(buf, sizeof buf, "%.1f s sweep from %s, %zu points (%.2f s)", sweep_s,
                 source->describe().c_str(), cloud.points_base.size(), stage_done("sweep"));
-  say("[1/" + std::string(of) + "] scan", buf);
+  say(step(1, "scan"), buf);
 
   // 2. Localization, judged against the truth only the twin knows.
   const PoseEstimate pose = localize(cloud.points_base, mesh, LocalizeSetting(), part.seam_points(0.001));
@@ -199,7 +202,7 @@ int run_job(const RunCommand& cmd) {
                 "%s: fitness %.2f, coverage %.2f, seam error %.3f mm against the truth (%.2f s)",
                 pose.found ? "found" : ("NOT found: " + pose.reason).c_str(), pose.fitness, pose.coverage,
                 1e3 * run.pose_error.seam_max_m, stage_done("localize"));
-  say("[2/" + std::string(of) + "] find", buf);
+  say(step(2, "find"), buf);
 
   // 3. The plan, at the pose found, avoiding what the twin knows of the cell — from where the arm stands,
   // when a real one is to execute it.
@@ -211,7 +214,7 @@ int run_job(const RunCommand& cmd) {
       throw InputError(driver->describe() + ": the arm reports joints outside the URDF's limits");
     if ((q_now - plan_setting.home).cwiseAbs().maxCoeff() > 1e-3) {
       plan_setting.start = q_now;
-      say("[3/" + std::string(of) + "] plan", "from where the arm stands (not home): " + driver->describe());
+      say(step(3, "plan"), "from where the arm stands (not home): " + driver->describe());
     }
   }
   WeldPlan plan;
@@ -230,7 +233,7 @@ int run_job(const RunCommand& cmd) {
                 : plan.ok() ? ""
                             : ("NOT planned: " + plan.problems.front() + "; ").c_str(),
                 plan.seams.size(), plan.duration_s(), plan.samples.size(), stage_done("plan"));
-  say("[3/" + std::string(of) + "] plan", buf);
+  say(step(3, "plan"), buf);
 
   // 4. The replay.
   ReplayResult replay;
@@ -245,7 +248,7 @@ int run_job(const RunCommand& cmd) {
   } else {
     std::snprintf(buf, sizeof buf, "skipped: nothing to replay (%.2f s)", stage_done("replay"));
   }
-  say("[4/" + std::string(of) + "] replay", buf);
+  say(step(4, "replay"), buf);
 
   // Verdict.
   if (!pose.found) run.reasons.push_back("part not found: " + pose.reason);
@@ -258,12 +261,12 @@ int run_job(const RunCommand& cmd) {
   const double report_s = write_report(run, cmd.out, cmd.renders);
   stage_done("report");
   std::snprintf(buf, sizeof buf, "%s/report.html (%.2f s)", cmd.out.c_str(), report_s);
-  say("[5/" + std::string(of) + "] report", buf);
+  say(step(5, "report"), buf);
 
   // 6. The robot: a dry run, or — through the gate — the plan executed.
   std::string executed;
   if (robot_stage) {
-    const std::string stage = "[6/6] robot";
+    const std::string stage = step(6, "robot");
     if (!cmd.execute) {
       if (!run.passed) {
         say(stage, "dry run: nothing would be sent (the run did not pass)");
