@@ -215,7 +215,8 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d, const
 
   LocalizeSetting setting;
   setting.threads = 1;
-  const PoseEstimate ours = localize(cloud.points_base, c.mesh, setting, c.seam_points);
+  const PoseEstimate ours =
+      localize(cloud.points_base, c.mesh, setting, c.seam_points, cloud.viewpoints_base);
   const PoseError ours_error = pose_error(c.part, ours.T_base_part, d.layout.T_base_part, c.symmetry);
   j["ours"] = pose_json(ours, ours_error);
   lap("ours");
@@ -271,7 +272,7 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d, const
     // replay with pictures; `weldtwin localize --scan DIR/scan.pcd` the localization.
     const std::string dir = cmd.keep_failed + "/trial-" + std::to_string(d.index);
     std::filesystem::create_directories(dir);
-    write_pcd(dir + "/scan.pcd", cloud.points_base);
+    write_pcd(dir + "/scan.pcd", cloud.points_base, false, &cloud.viewpoints_base);
     json truth = {{"T_base_part", json::array()}};
     for (int r = 0; r < 4; ++r)
       truth["T_base_part"].push_back({d.layout.T_base_part(r, 0), d.layout.T_base_part(r, 1),

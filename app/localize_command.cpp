@@ -42,22 +42,29 @@ int run_localize(const LocalizeCommand& cmd) {
   if (cmd.units != "m" && cmd.units != "mm") throw input_error(cmd.model, "--units must be m or mm");
   const Mesh mesh = load_mesh(cmd.model, cmd.units == "mm" ? 1e-3 : 1.0);
   size_t dropped = 0;
-  std::vector<Vec3> cloud = read_cloud(cmd.scan, &dropped);
+  std::vector<Vec3> viewpoints;  // where the sensor saw each point from, if the cloud says
+  std::vector<Vec3> cloud = read_cloud(cmd.scan, &dropped, &viewpoints);
   if (cloud.empty()) throw input_error(cmd.scan, "the cloud has no finite points");
   if (!cmd.roi.empty()) {
     if (cmd.roi.size() != 6) throw input_error(cmd.scan, "--roi takes xmin,ymin,zmin,xmax,ymax,zmax");
-    std::vector<Vec3> kept;
-    for (const Vec3& p : cloud)
+    std::vector<Vec3> kept, kept_viewpoints;
+    for (size_t i = 0; i < cloud.size(); ++i) {
+      const Vec3& p = cloud[i];
       if (p.x() >= cmd.roi[0] && p.y() >= cmd.roi[1] && p.z() >= cmd.roi[2] && p.x() <= cmd.roi[3] &&
-          p.y() <= cmd.roi[4] && p.z() <= cmd.roi[5])
+          p.y() <= cmd.roi[4] && p.z() <= cmd.roi[5]) {
         kept.push_back(p);
+        if (!viewpoints.empty()) kept_viewpoints.push_back(viewpoints[i]);
+      }
+    }
     cloud.swap(kept);
+    viewpoints.swap(kept_viewpoints);
   }
   // Seam points from the part spec, when given: poses that weld the same place are not ambiguous.
   const std::vector<Vec3> seam_points =
       cmd.part.empty() ? std::vector<Vec3>() : PartSpec::load(cmd.part).seam_points(0.001);
-  const PoseEstimate pose = cmd.method == "paper" ? localize_paper(cloud, mesh)
-                                                  : localize(cloud, mesh, LocalizeSetting(), seam_points);
+  const PoseEstimate pose = cmd.method == "paper"
+                                ? localize_paper(cloud, mesh)
+                                : localize(cloud, mesh, LocalizeSetting(), seam_points, viewpoints);
 
   nlohmann::json out = pose_to_json(pose);
   out["method"] = cmd.method;

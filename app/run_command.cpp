@@ -179,7 +179,7 @@ int run_job(const RunCommand& cmd) {
   } catch (const std::invalid_argument& e) {  // a log of another robot
     throw input_error(cmd.source, e.what());
   }
-  write_pcd(cmd.out + "/scan.pcd", cloud.points_base);
+  write_pcd(cmd.out + "/scan.pcd", cloud.points_base, false, &cloud.viewpoints_base);
   run.cloud = cloud.points_base;
   const std::vector<Label> labels = source->labels();
   if (!labels.empty())
@@ -190,7 +190,8 @@ int run_job(const RunCommand& cmd) {
   say(step(1, "scan"), buf);
 
   // 2. Localization, judged against the truth only the twin knows.
-  const PoseEstimate pose = localize(cloud.points_base, mesh, LocalizeSetting(), part.seam_points(0.001));
+  const PoseEstimate pose =
+      localize(cloud.points_base, mesh, LocalizeSetting(), part.seam_points(0.001), cloud.viewpoints_base);
   run.pose = &pose;
   run.pose_error = pose_error(part, pose.T_base_part, layout.T_base_part, z_symmetry_order(mesh));
   {

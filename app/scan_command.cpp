@@ -84,7 +84,7 @@ int run_scan(const ScanCommand& cmd) {
   if (cmd.cloud.empty() && cmd.truth.empty()) return 0;
   const AssembledCloud cloud = assemble_scan(sweep.log, robot);
   if (!cmd.cloud.empty()) {
-    write_pcd(cmd.cloud, cloud.points_base);
+    write_pcd(cmd.cloud, cloud.points_base, false, &cloud.viewpoints_base);
     say("wrote " + std::to_string(cloud.points_base.size()) + " points to " + cmd.cloud);
   }
   if (cmd.truth.empty()) return 0;

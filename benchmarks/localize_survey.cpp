@@ -30,10 +30,12 @@ namespace {
 struct Scan {
   std::vector<Vec3> points;
   std::vector<uint8_t> labels;
+  std::vector<Vec3> viewpoints;  ///< the sensor's position for each point
   Iso3 truth = Iso3::Identity();
 };
 
-// Cache: point count, T (16 doubles), then float xyz + label per point. Only for re-running quickly.
+// Cache: point count, T (16 doubles), then float xyz per point, a label per point, float xyz of the sensor per
+// point. Only for re-running quickly.
 bool read_cache(const std::string& file, Scan& scan) {
   std::ifstream in(file, std::ios::binary);
   uint64_t n = 0;
@@ -45,9 +47,15 @@ bool read_cache(const std::string& file, Scan& scan) {
   scan.labels.resize(n);
   in.read(reinterpret_cast<char*>(xyz.data()), static_cast<std::streamsize>(xyz.size() * sizeof(float)));
   in.read(reinterpret_cast<char*>(scan.labels.data()), static_cast<std::streamsize>(n));
+  std::vector<float> vp(3 * n);
+  in.read(reinterpret_cast<char*>(vp.data()), static_cast<std::streamsize>(vp.size() * sizeof(float)));
   if (!in) return false;
   scan.points.resize(n);
-  for (size_t i = 0; i < n; ++i) scan.points[i] = Vec3(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+  scan.viewpoints.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    scan.points[i] = Vec3(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+    scan.viewpoints[i] = Vec3(vp[3 * i], vp[3 * i + 1], vp[3 * i + 2]);
+  }
   return true;
 }
 
@@ -64,6 +72,11 @@ void write_cache(const std::string& file, const Scan& scan) {
   out.write(reinterpret_cast<const char*>(xyz.data()),
             static_cast<std::streamsize>(xyz.size() * sizeof(float)));
   out.write(reinterpret_cast<const char*>(scan.labels.data()), static_cast<std::streamsize>(n));
+  xyz.clear();
+  for (const Vec3& p : scan.viewpoints)
+    for (int k = 0; k < 3; ++k) xyz.push_back(static_cast<float>(p[k]));
+  out.write(reinterpret_cast<const char*>(xyz.data()),
+            static_cast<std::streamsize>(xyz.size() * sizeof(float)));
   out.close();
   std::filesystem::rename(file + ".tmp", file);
 }
@@ -217,13 +230,14 @@ int main(int argc, char** argv) {
           const SweepResult r = simulate_sweep(world, robot, program, lidar, opt);
           const AssembledCloud cloud = assemble_scan(r.log, robot);
           scan.points = cloud.points_base;
+          scan.viewpoints = cloud.viewpoints_base;
           for (uint32_t s : cloud.sample_index) scan.labels.push_back(static_cast<uint8_t>(r.labels[s]));
           scan.truth = layout.T_base_part;
           if (!file.empty()) write_cache(file, scan);
         }
         t.points = scan.points.size();
         scan_truth_of[i] = scan.truth;
-        t.ours = localize(scan.points, d.mesh, LocalizeSetting(), d.seam_points);
+        t.ours = localize(scan.points, d.mesh, LocalizeSetting(), d.seam_points, scan.viewpoints);
         t.ours_err = pose_error(d.part, t.ours.T_base_part, scan.truth, d.order);
         if (!no_paper) {
           t.paper = localize_paper(scan.points, d.mesh);
@@ -231,14 +245,18 @@ int main(int argc, char** argv) {
         }
         if (!no_impostors &&
             (impostor_layouts < 0 || t.seed < seed0 + static_cast<uint64_t>(impostor_layouts))) {
-          std::vector<Vec3> absent;
+          std::vector<Vec3> absent, absent_vp;
           for (size_t k = 0; k < scan.points.size(); ++k)
-            if (scan.labels[k] != static_cast<uint8_t>(Label::kPart)) absent.push_back(scan.points[k]);
-          t.impostors.emplace_back("absent", localize(absent, d.mesh, LocalizeSetting(), d.seam_points));
+            if (scan.labels[k] != static_cast<uint8_t>(Label::kPart)) {
+              absent.push_back(scan.points[k]);
+              absent_vp.push_back(scan.viewpoints[k]);
+            }
+          t.impostors.emplace_back("absent",
+                                   localize(absent, d.mesh, LocalizeSetting(), d.seam_points, absent_vp));
           for (const PartData& o : parts)
             if (o.part.name != d.part.name)
               t.impostors.emplace_back(o.part.name,
-                                       localize(scan.points, o.mesh, LocalizeSetting(), o.seam_points));
+                                       localize(scan.points, o.mesh, LocalizeSetting(), o.seam_points, scan.viewpoints));
         }
         std::lock_guard<std::mutex> lock(io);
         ++done;

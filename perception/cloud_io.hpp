@@ -8,11 +8,16 @@
 
 namespace weldtwin {
 
-/// Writes x y z (float) as binary PCD, or ascii when `ascii` is set. Throws std::runtime_error on failure.
-void write_pcd(const std::string& path, const std::vector<Vec3>& points, bool ascii = false);
+/// Writes x y z (float) as binary PCD, or ascii when `ascii` is set. With `viewpoints` (one per point: where
+/// the sensor was when it saw it), the fields are PCL's PointWithViewpoint: x y z vp_x vp_y vp_z. Throws
+/// std::runtime_error on failure.
+void write_pcd(const std::string& path, const std::vector<Vec3>& points, bool ascii = false,
+               const std::vector<Vec3>* viewpoints = nullptr);
 
-/// Reads x y z from a PCD or PLY file (by extension). Drops non-finite points and reports how many.
-/// Throws InputError naming the file for a missing, empty, malformed or truncated file.
-std::vector<Vec3> read_cloud(const std::string& path, size_t* dropped_non_finite = nullptr);
+/// Reads x y z from a PCD or PLY file (by extension). Drops non-finite points and reports how many. If
+/// `viewpoints` is given, it receives vp_x vp_y vp_z per point kept when the file has them, else it is left
+/// empty. Throws InputError naming the file for a missing, empty, malformed or truncated file.
+std::vector<Vec3> read_cloud(const std::string& path, size_t* dropped_non_finite = nullptr,
+                             std::vector<Vec3>* viewpoints = nullptr);
 
 }  // namespace weldtwin

@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <limits>
 #include <map>
+#include <memory>
 #include <thread>
 #include <unordered_map>
 
@@ -252,6 +253,7 @@ struct Model {
   std::vector<uint8_t> view_score;  // how many of the test directions see it (more: seen more often)
   std::vector<float> half_thickness, edge_distance;
   pcl::KdTreeFLANN<pcl::PointXYZ> tree;
+  std::unique_ptr<MeshRays> rays;             // the mesh itself, resting on z = 0 (part frame)
   Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();  // bounding box of the samples
   double radius = 0.0, height = 0.0;
   std::vector<std::vector<int>> walls_by_height;  // visible wall samples (every third) per height bin
@@ -359,7 +361,8 @@ void build_model(const Mesh& mesh, double min_z, const LocalizeSetting& s, Model
   for (Vec3& v : rest.vertices) v.z() -= min_z;
   orient_outward(rest);  // a mesh file's winding is not to be trusted
   const SurfaceSamples all = sample_surface(rest, s.model_spacing_m, -0.7);
-  const MeshRays rays(rest);
+  model.rays = std::make_unique<MeshRays>(rest);
+  const MeshRays& rays = *model.rays;
   model.pts = all.points;
   model.nrm = all.normals;
   const size_t n = model.pts.size();
@@ -551,8 +554,9 @@ int add_outline_terms(Context& c, const Iso3& P, Mat3& A, Vec3& b) {
     if (std::abs(t) > 0.006 || best > known / 4) continue;
     const Eigen::Vector2d e2 = o.at + t * o.out;
     const Vec3 J(e2.x() * o.out.y() - e2.y() * o.out.x(), o.out.x(), o.out.y());
-    A += J * J.transpose();
-    b -= J * t;
+    static const double w = std::getenv("WT_OUTLINE_W") ? std::atof(std::getenv("WT_OUTLINE_W")) : 1.0;
+    A += w * J * J.transpose();
+    b -= w * J * t;
     ++used;
   }
   return used;
@@ -579,6 +583,9 @@ struct IcpResult {
 // along it; a choice by the point itself would keep one sign of the noise and drop the other).
 struct ScanPoint {
   Vec3 raw, smooth;
+  Vec3 ray = Vec3::Zero();  ///< unit direction from the sensor to the point (table frame); zero if unknown
+  Vec3 origin = Vec3::Zero();  ///< the sensor's position (table frame), when the ray is known
+  double range = 0.0;
 };
 
 IcpResult icp(const std::vector<ScanPoint>& scan, Context& c, Iso3 P, int iterations, bool thin_walls) {
@@ -600,17 +607,76 @@ IcpResult icp(const std::vector<ScanPoint>& scan, Context& c, Iso3 P, int iterat
     if (from.size() < 20) break;
     P = planar_rigid_fit(from, to) * P;
   }
+  static const bool cast_env = !std::getenv("WT_NO_CAST");
+  const bool cast = cast_env && thin_walls && !scan.empty() && scan.front().range > 0;
+  static const int recast = std::getenv("WT_RECAST") ? std::atoi(std::getenv("WT_RECAST")) : 1;
+  static const double cast_wmin = std::getenv("WT_CWMIN") ? std::atof(std::getenv("WT_CWMIN")) : 0.0;
+  std::vector<int> face(cast ? scan.size() : 0, -1);
   for (int it = 0; it < iterations; ++it) {
     const double f = iterations > 1 ? static_cast<double>(it) / (iterations - 1) : 1.0;
     const double max_d = std::max(c.trim, c.s.icp_start_distance_m + f * (c.trim - c.s.icp_start_distance_m));
     Mat3 A = Mat3::Zero();
     Vec3 b = Vec3::Zero();
     int used = 0;
+    if (cast) {
+      // Each ray is matched with the face it would meet were the pose right: the choice depends on where the
+      // sensor looked, never on where the range noise threw the point, so no sign of the noise is dropped.
+      if (it % recast == 0 || it == iterations - 1)
+        for (size_t i = 0; i < scan.size(); ++i) {
+          const ScanPoint& sp = scan[i];
+          const Vec3 o = P * sp.origin, d = P.linear() * sp.ray;
+          const double t = m.rays->hit(o, d, 0.0, sp.range + 0.02);
+          face[i] = -1;
+          if (!std::isfinite(t) || t < sp.range - 0.02) continue;
+          const Vec3 at = o + t * d;
+          const int k = m.nearest(at);
+          if (k < 0) continue;
+          const size_t kk = static_cast<size_t>(k);
+          if (std::abs(m.nrm[kk].z()) > 0.95 || m.nrm[kk].dot(d) >= 0.0 || !m.visible[kk] ||
+              m.edge_distance[kk] < c.edge_margin || at.z() < c.edge_margin)
+            continue;
+          face[i] = k;
+        }
+      for (size_t i = 0; i < scan.size(); ++i) {
+        if (face[i] < 0) continue;
+        const size_t kk = static_cast<size_t>(face[i]);
+        const Vec3& n = m.nrm[kk];
+        const Vec3 p = P * scan[i].raw;
+        const double r = (p - m.pts[kk]).dot(n);
+        double w = 1.0, limit = max_d;
+        if (cast_wmin > 0) {
+          const double dn = std::max(std::abs((P.linear() * scan[i].ray).dot(n)), cast_wmin);
+          w = 0.25 / (dn * dn);
+        }
+        if (std::abs(r) > limit) continue;
+        const Vec3 J(p.x() * n.y() - p.y() * n.x(), n.x(), n.y());
+        A += w * J * J.transpose();
+        b -= w * J * r;
+        ++used;
+      }
+    }
     for (const ScanPoint& sp : scan) {
+      if (cast) break;
       const Vec3 p = P * sp.raw;
       const int k = m.nearest(P * sp.smooth);
       if (k < 0) continue;
-      const size_t kk = static_cast<size_t>(k);
+      size_t kk = static_cast<size_t>(k);
+      const bool seen_from = thin_walls && sp.ray.squaredNorm() > 0.5;
+      Vec3 ray = Vec3::Zero();
+      if (seen_from) {
+        // Where the sensor looked from tells the faces of a thin wall apart: a face is seen from its front
+        // only, so a point taken for a face seen from behind belongs to the face behind it (the other side
+        // of the wall), or to none.
+        ray = P.linear() * sp.ray;
+        if (ray.dot(m.nrm[kk]) >= 0.0) {
+          const double h = m.half_thickness[kk];
+          const int kb = m.nearest(m.pts[kk] - 2 * h * m.nrm[kk]);
+          if (h >= c.trim || kb < 0 || m.nrm[static_cast<size_t>(kb)].dot(m.nrm[kk]) > -0.5 ||
+              ray.dot(m.nrm[static_cast<size_t>(kb)]) >= 0.0)
+            continue;
+          kk = static_cast<size_t>(kb);
+        }
+      }
       if (m.edge_distance[kk] < c.edge_margin) continue;
       const Vec3& n = m.nrm[kk];
       const Vec3 d = p - m.pts[kk];
@@ -619,7 +685,7 @@ IcpResult icp(const std::vector<ScanPoint>& scan, Context& c, Iso3 P, int iterat
       const Vec3 J(p.x() * n.y() - p.y() * n.x(), n.x(), n.y());
       const double h = m.half_thickness[kk];
       double limit = max_d;
-      if (thin_walls && h < c.trim) {
+      if (thin_walls && !seen_from && h < c.trim) {
         // A thin wall, seen on both sides: noise this wide carries points across its middle, so a point
         // taken for the side seen less (an inner wall seen only steeply) may well belong to the other side.
         // Only the better-seen side is used, trimmed at the middle so its own noise stays symmetric.
@@ -629,9 +695,18 @@ IcpResult icp(const std::vector<ScanPoint>& scan, Context& c, Iso3 P, int iterat
           continue;
         limit = std::min(max_d, h);
       }
+      double w = 1.0;
+      static const double wmin = std::getenv("WT_WMIN") ? std::atof(std::getenv("WT_WMIN")) : 0.0;
+      static const double wref = std::getenv("WT_WREF") ? std::atof(std::getenv("WT_WREF")) : 0.5;
+      static const bool wtrim = std::getenv("WT_WTRIM") != nullptr;
+      if (seen_from && wmin > 0) {
+        const double dn = std::max(std::abs(ray.dot(n)), wmin);
+        w = (wref / dn) * (wref / dn);
+        if (wtrim) limit *= dn;
+      }
       if (!m.visible[kk] || std::abs(r) > limit) continue;
-      A += J * J.transpose();
-      b -= J * r;
+      A += w * J * J.transpose();
+      b -= w * J * r;
       ++used;
     }
     used += add_outline_terms(c, P, A, b);
@@ -773,7 +848,7 @@ std::vector<T> thinned(const std::vector<T>& v, size_t max) {
 }  // namespace
 
 PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, const LocalizeSetting& s,
-                      const std::vector<Vec3>& seam_points) {
+                      const std::vector<Vec3>& seam_points, const std::vector<Vec3>& viewpoints_base) {
   const auto t0 = Clock::now();
   auto lap = t0;
   PoseEstimate out;
@@ -801,9 +876,9 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   out.noise_m = noise;
   Context c(s, model);
   c.noise = noise;
-  c.trim = s.noise_trim * noise;
+  c.trim = (std::getenv("WT_TRIM") ? std::atof(std::getenv("WT_TRIM")) : s.noise_trim) * noise;
   c.inlier = std::max(0.0015, 2.5 * noise);
-  c.edge_margin = s.edge_margin_sigmas * noise;
+  c.edge_margin = (std::getenv("WT_EDGE") ? std::atof(std::getenv("WT_EDGE")) : s.edge_margin_sigmas) * noise;
   c.height_cut = std::max(s.min_height_m, s.height_cut_sigmas * noise);
   const Iso3 T_base_table = table_frame(out.table_plane), T_table_base = T_base_table.inverse();
   stage("table");
@@ -816,19 +891,30 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   c.low_sum.assign(c.low.on.size(), 0.0f);
   c.low_count.assign(c.low.on.size(), 0);
   const double low_top = c.outline_max_top + 3 * noise;
-  for (const Vec3& p : scan_base) {
+  // With the sensor's position for every point, the fine refinement uses the points themselves with the
+  // direction each was seen from (a voxel's centroid would mix the two sides of a thin wall).
+  const bool rays = viewpoints_base.size() == scan_base.size() && !std::getenv("WT_NO_VP");
+  std::vector<ScanPoint> seen;
+  std::vector<uint32_t> seen_idx;  // every point near or above the table, when the rays are known
+  for (size_t i = 0; i < scan_base.size(); ++i) {
+    const Vec3& p = scan_base[i];
     const double rxy = p.head<2>().norm();
     if (rxy < s.base_keepout_m || rxy > s.reach_radius_m) continue;
     const Vec3 q = T_table_base * p;
+    if (rays && q.z() > -3 * noise && q.z() < model.height + 0.05) seen_idx.push_back(static_cast<uint32_t>(i));
     if (q.z() > -3 * noise && q.z() < low_top) {
-      const long i = c.low.index(q.x(), q.y());
-      if (i >= 0 && c.low_count[static_cast<size_t>(i)] < 60000) {
-        c.low_sum[static_cast<size_t>(i)] += static_cast<float>(q.z());
-        ++c.low_count[static_cast<size_t>(i)];
+      const long cell = c.low.index(q.x(), q.y());
+      if (cell >= 0 && c.low_count[static_cast<size_t>(cell)] < 60000) {
+        c.low_sum[static_cast<size_t>(cell)] += static_cast<float>(q.z());
+        ++c.low_count[static_cast<size_t>(cell)];
       }
     }
     if (q.z() < s.min_height_m || q.z() > model.height + 0.05) continue;
     above.push_back(q);
+    if (rays && q.z() >= c.height_cut) {
+      const Vec3 ray = q - T_table_base * viewpoints_base[i];
+      if (ray.norm() > 1e-6) seen.push_back({q, q, ray.normalized()});
+    }
   }
   if (above.size() < 50) return finish("nothing stands on the table");
   Cloud::Ptr objects(new Cloud);
@@ -963,9 +1049,9 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   };
   // The points around a pose that can move (x, y, yaw): those nearest a face that is not level (a level
   // face's residual does not change with them).
-  auto near_pose = [&](const Iso3& P) {
+  auto near_pose = [&](const Iso3& P, const std::vector<ScanPoint>& from) {
     std::vector<ScanPoint> near;
-    for (const ScanPoint& sp : icp_points) {
+    for (const ScanPoint& sp : from) {
       const Vec3& q = sp.raw;
       const Vec3 p = P * q;
       if (p.x() < model.lo.x() - 0.02 || p.y() < model.lo.y() - 0.02 || p.x() > model.hi.x() + 0.02 ||
@@ -976,6 +1062,42 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
           (p - model.pts[static_cast<size_t>(k)]).norm() < 0.004)
         continue;
       near.push_back(sp);
+    }
+    return near;
+  };
+  // With rays: every ray that may meet a face that can move (x, y, yaw) at pose P, chosen by where it
+  // points: table-level points near the footprint's outline (the plate's walls), and the rest unless deep
+  // inside a level face.
+  const Iso3 T_table_base_f = T_table_base;
+  auto near_rays = [&](const Iso3& P) {
+    std::vector<ScanPoint> near;
+    const double band = 0.008, deep = 3 * noise + 0.002;
+    auto on = [&](const Vec3& x) {
+      const long i = model.footprint.index(x.x(), x.y());
+      return i >= 0 && model.footprint.on[static_cast<size_t>(i)];
+    };
+    for (uint32_t i : seen_idx) {
+      const Vec3 q = T_table_base_f * scan_base[i];
+      const Vec3 p = P * q;
+      if (p.x() < model.lo.x() - 0.015 || p.y() < model.lo.y() - 0.015 || p.x() > model.hi.x() + 0.015 ||
+          p.y() > model.hi.y() + 0.015)
+        continue;
+      if (q.z() < c.height_cut) {
+        const bool here = on(p);
+        if (here == on(p + Vec3(band, 0, 0)) && here == on(p - Vec3(band, 0, 0)) &&
+            here == on(p + Vec3(0, band, 0)) && here == on(p - Vec3(0, band, 0)))
+          continue;
+      } else {
+        const int k = model.nearest(p);
+        if (k >= 0 && std::abs(model.nrm[static_cast<size_t>(k)].z()) > 0.95 &&
+            (p - model.pts[static_cast<size_t>(k)]).norm() < 0.004 &&
+            model.edge_distance[static_cast<size_t>(k)] > deep)
+          continue;
+      }
+      const Vec3 o = T_table_base_f * viewpoints_base[i];
+      const double range = (q - o).norm();
+      if (range < 1e-6) continue;
+      near.push_back({q, q, (q - o) / range, o, range});
     }
     return near;
   };
@@ -1006,7 +1128,8 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   parallel_for(hyps.size(), s.threads, [&](size_t i) {
     const Iso3 P0 = planar_pose(hyps[i].x, hyps[i].y, 0.0, hyps[i].yaw).inverse();
     const IcpResult r =
-        icp(thinned(near_pose(P0), static_cast<size_t>(s.coarse_points)), c, P0, s.coarse_iterations, false);
+        icp(thinned(near_pose(P0, icp_points), static_cast<size_t>(s.coarse_points)), c, P0, s.coarse_iterations,
+            false);
     coarse[i] = {r.P, r, score(scan, scan_tree, footprint, c, r.P)};
   });
   // A pose that puts the part where the table is seen is no candidate; of the rest, the best few distinct.
@@ -1029,8 +1152,25 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   std::vector<Refined> refined(chosen.size());
   parallel_for(chosen.size(), s.threads, [&](size_t i) {
     const Iso3& P = chosen[i]->P;
-    const IcpResult f =
-        icp(thinned(near_pose(P), static_cast<size_t>(s.icp_max_points)), c, P, s.fine_iterations, true);
+    static const bool cast_env = !std::getenv("WT_NO_CAST");
+    std::vector<ScanPoint> near =
+        thinned(cast_env && !seen_idx.empty() ? near_rays(P) : near_pose(P, seen.empty() ? icp_points : seen),
+                static_cast<size_t>(std::getenv("WT_ICPN") ? std::atoi(std::getenv("WT_ICPN")) : s.icp_max_points));
+    if (std::getenv("WT_DBG")) std::fprintf(stderr, "seen %zu near %zu rays %zu\n", seen.size(), near_pose(P, seen).size(), near_rays(P).size());
+    if (!seen.empty() && !(cast_env && !seen_idx.empty())) {
+      std::vector<int> idx;
+      std::vector<float> d2;
+      const float r2 = static_cast<float>(std::pow(std::max(0.004, 2 * noise), 2));
+      for (ScanPoint& sp : near) {
+        Vec3 mean = Vec3::Zero();
+        int n = 0;
+        if (scan_tree.nearestKSearch(pt(sp.raw), s.smoothing_neighbours, idx, d2) > 0)
+          for (size_t j = 0; j < idx.size(); ++j)
+            if (d2[j] <= r2) mean += scan[static_cast<size_t>(idx[j])], ++n;
+        if (n) sp.smooth = mean / n;
+      }
+    }
+    const IcpResult f = icp(near, c, P, s.fine_iterations, true);
     refined[i] = {f.P, f, score(scan, scan_tree, footprint, c, f.P)};
   });
   std::sort(refined.begin(), refined.end(), better);

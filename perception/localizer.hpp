@@ -101,8 +101,11 @@ Iso3 planar_rigid_fit(const std::vector<Vec3>& from, const std::vector<Vec3>& to
 /// Localizes `model` (part frame, resting on z = its lowest vertex) in `scan_base`. `seam_points` (part
 /// frame, optional) are points along the part's weld seams, about 1 mm apart: two poses that map them onto
 /// each other weld the same place, so they are not ambiguous even where the mesh itself is not symmetric (a
-/// round tube on a square plate).
+/// round tube on a square plate). `viewpoints_base` (optional, one per scan point) is where the sensor was
+/// when it saw each point: it tells the two sides of a thin wall apart, which the points alone cannot under
+/// range noise comparable to the wall's thickness.
 PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& model,
-                      const LocalizeSetting& setting = {}, const std::vector<Vec3>& seam_points = {});
+                      const LocalizeSetting& setting = {}, const std::vector<Vec3>& seam_points = {},
+                      const std::vector<Vec3>& viewpoints_base = {});
 
 }  // namespace weldtwin

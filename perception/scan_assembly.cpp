@@ -42,6 +42,7 @@ AssembledCloud assemble_scan(const ScanLog& log, const RobotModel& robot, const 
   AssembledCloud cloud;
   cloud.points_base.reserve(log.samples.size());
   cloud.sample_index.reserve(log.samples.size());
+  cloud.viewpoints_base.reserve(log.samples.size());
   for (size_t i = 0; i < log.samples.size(); ++i) {
     const LidarSample& s = log.samples[i];
     if (!usable(s, setting)) continue;
@@ -50,7 +51,9 @@ AssembledCloud assemble_scan(const ScanLog& log, const RobotModel& robot, const 
       ++cloud.dropped_outside_joint_log;
       continue;
     }
-    cloud.points_base.push_back(sample_point(robot.forward_kinematics(q, lidar), s));
+    const Iso3 T = robot.forward_kinematics(q, lidar);
+    cloud.points_base.push_back(sample_point(T, s));
+    cloud.viewpoints_base.push_back(T.translation());
     cloud.sample_index.push_back(static_cast<uint32_t>(i));
   }
   return cloud;
@@ -64,6 +67,7 @@ AssembledCloud assemble_scan(const ScanLog& log, const std::vector<Iso3>& T_base
   for (size_t i = 0; i < log.samples.size(); ++i) {
     if (!usable(log.samples[i], setting)) continue;
     cloud.points_base.push_back(sample_point(T_base_lidar[i], log.samples[i]));
+    cloud.viewpoints_base.push_back(T_base_lidar[i].translation());
     cloud.sample_index.push_back(static_cast<uint32_t>(i));
   }
   return cloud;

@@ -18,6 +18,7 @@ struct AssemblySetting {
 struct AssembledCloud {
   std::vector<Vec3> points_base;         ///< [m], base frame
   std::vector<uint32_t> sample_index;    ///< the ScanLog sample each point came from
+  std::vector<Vec3> viewpoints_base;     ///< [m], base frame: where the sensor was when it saw each point
   size_t dropped_outside_joint_log = 0;  ///< samples with no joint state before and after them
 };
 

@@ -25,6 +25,7 @@ struct TwinScan {
   std::vector<Label> labels;
   Iso3 truth;
   PartSpec part;
+  std::vector<Vec3> viewpoints;  ///< where the LiDAR was when it saw each point
 };
 
 // A twin scan with the default LiDAR noise, seeded like the localization survey (layout and noise seed).
@@ -35,7 +36,7 @@ TwinScan twin_scan(const std::string& cell_file, uint64_t seed) {
   lidar.seed = seed;
   const SweepResult sweep = simulate_sweep(*cell.world, cell.robot, program, lidar);
   const AssembledCloud a = assemble_scan(sweep.log, cell.robot);
-  TwinScan out{a.points_base, {}, cell.layout.T_base_part, cell.part};
+  TwinScan out{a.points_base, {}, cell.layout.T_base_part, cell.part, a.viewpoints_base};
   for (uint32_t s : a.sample_index) out.labels.push_back(sweep.labels[s]);
   return out;
 }
@@ -122,7 +123,8 @@ TEST(Localizer, FindsEachPartInSeededTwinScansAtTheBar) {
   for (const auto& [file, seed] : cases) {
     const TwinScan scan = twin_scan(file, seed);
     const Mesh mesh = load_mesh(scan.part.mesh_path);
-    const PoseEstimate pose = localize(scan.cloud, mesh, LocalizeSetting(), scan.part.seam_points(0.001));
+    const PoseEstimate pose =
+        localize(scan.cloud, mesh, LocalizeSetting(), scan.part.seam_points(0.001), scan.viewpoints);
     ASSERT_TRUE(pose.found) << file << ": " << pose.reason;
     const PoseError e = pose_error(scan.part, pose.T_base_part, scan.truth, z_symmetry_order(mesh));
     std::printf("%s seed %llu: seam %.3f mm, rotation %.3f deg, %.2f s\n", scan.part.name.c_str(),
@@ -219,6 +221,45 @@ TEST(Localizer, BadInputIsRefusedCleanly) {
   const Mesh m = load_mesh(test::repo("scenes/parts/tube_tee.stl"));
   const Mesh mm = load_mesh(test::repo("scenes/parts/tube_tee.stl"), 1e3);
   EXPECT_NEAR(mm.vertices[5].x(), 1e3 * m.vertices[5].x(), 1e-6);
+}
+
+TEST(Localizer, CloudFilesCarryTheViewpointOfEveryPoint) {
+  // Written with viewpoints: PCL's x y z vp_x vp_y vp_z, read back point for point (binary and ascii). Without
+  // them (and from a file without those fields) no viewpoints. A row with a non-finite viewpoint is dropped
+  // with its point.
+  const auto dir = std::filesystem::temp_directory_path() / "weldtwin_localizer_test";
+  std::filesystem::create_directories(dir);
+  const std::vector<Vec3> pts{{0.1, 0.2, 0.3}, {-0.4, 0.5, 0.025}, {0.7, -0.8, 0.9}};
+  const std::vector<Vec3> vps{{0.0, 0.1, 0.5}, {0.2, 0.3, 0.6}, {-0.1, 0.0, 0.45}};
+  for (bool ascii : {false, true}) {
+    const std::string file = (dir / (ascii ? "vp_ascii.pcd" : "vp_binary.pcd")).string();
+    write_pcd(file, pts, ascii, &vps);
+    std::vector<Vec3> got_vp;
+    const std::vector<Vec3> got = read_cloud(file, nullptr, &got_vp);
+    ASSERT_EQ(got.size(), pts.size());
+    ASSERT_EQ(got_vp.size(), vps.size());
+    for (size_t i = 0; i < pts.size(); ++i) {
+      EXPECT_LT((got[i] - pts[i]).norm(), 1e-6) << i;
+      EXPECT_LT((got_vp[i] - vps[i]).norm(), 1e-6) << i;
+    }
+  }
+  const std::string plain = (dir / "plain.pcd").string();
+  write_pcd(plain, pts);
+  std::vector<Vec3> none{{1, 2, 3}};
+  EXPECT_EQ(read_cloud(plain, nullptr, &none).size(), pts.size());
+  EXPECT_TRUE(none.empty());
+  EXPECT_THROW(write_pcd(plain, pts, false, &none), std::invalid_argument);
+  const std::string bad = (dir / "bad_vp.pcd").string();
+  std::ofstream(bad) << "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z vp_x vp_y vp_z\nSIZE 4 4 4 4 4 4\n"
+                        "TYPE F F F F F F\nCOUNT 1 1 1 1 1 1\nWIDTH 2\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\n"
+                        "POINTS 2\nDATA ascii\n0.1 0.2 0.3 0 0 nan\n0.4 0.5 0.6 0 0 1\n";
+  size_t dropped = 0;
+  std::vector<Vec3> vp;
+  const std::vector<Vec3> kept = read_cloud(bad, &dropped, &vp);
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_EQ(dropped, 1u);
+  EXPECT_LT((kept[0] - Vec3(0.4, 0.5, 0.6)).norm(), 1e-6);
+  EXPECT_LT((vp.at(0) - Vec3(0, 0, 1)).norm(), 1e-6);
 }
 
 // The command line on big and odd clouds: 5 million points of bare table (an answer: not found, exit 3, the
