@@ -34,8 +34,8 @@ struct Scan {
   Iso3 truth = Iso3::Identity();
 };
 
-// Cache: point count, T (16 doubles), then float xyz per point, a label per point, float xyz of the sensor per
-// point. Only for re-running quickly.
+// Cache: point count, T (16 doubles), then float xyz per point, a label per point, float xyz of the sensor
+// per point. Only for re-running quickly.
 bool read_cache(const std::string& file, Scan& scan) {
   std::ifstream in(file, std::ios::binary);
   uint64_t n = 0;
@@ -255,8 +255,8 @@ int main(int argc, char** argv) {
                                    localize(absent, d.mesh, LocalizeSetting(), d.seam_points, absent_vp));
           for (const PartData& o : parts)
             if (o.part.name != d.part.name)
-              t.impostors.emplace_back(o.part.name,
-                                       localize(scan.points, o.mesh, LocalizeSetting(), o.seam_points, scan.viewpoints));
+              t.impostors.emplace_back(o.part.name, localize(scan.points, o.mesh, LocalizeSetting(),
+                                                             o.seam_points, scan.viewpoints));
         }
         std::lock_guard<std::mutex> lock(io);
         ++done;

@@ -298,6 +298,8 @@ struct Model {
 };
 
 constexpr double kHeightBin = 0.002;
+constexpr double kRayWindow = 0.02;  // a ray meeting the model this much before or beyond its range meets
+                                     // something else
 
 // Feature edges of the mesh (where the faces meet at more than 30 deg, or a face has no neighbour), except
 // along the underside resting on the table, as points 1 mm apart.
@@ -554,9 +556,8 @@ int add_outline_terms(Context& c, const Iso3& P, Mat3& A, Vec3& b) {
     if (std::abs(t) > 0.006 || best > known / 4) continue;
     const Eigen::Vector2d e2 = o.at + t * o.out;
     const Vec3 J(e2.x() * o.out.y() - e2.y() * o.out.x(), o.out.x(), o.out.y());
-    static const double w = std::getenv("WT_OUTLINE_W") ? std::atof(std::getenv("WT_OUTLINE_W")) : 1.0;
-    A += w * J * J.transpose();
-    b -= w * J * t;
+    A += J * J.transpose();
+    b -= J * t;
     ++used;
   }
   return used;
@@ -570,7 +571,8 @@ struct Hypothesis {
 // (x, y, yaw) point-to-plane ICP of scan points (table frame) onto the model. P maps the table frame into the
 // part frame. A correspondence counts only on a visible sample away from feature edges, with a residual
 // within the cut-off, the trim and half the wall behind it — each limit symmetric about the surface, so
-// noise does not push the answer one way.
+// noise does not push the answer one way. `fine`: no point-to-point steps first, thin walls handled, and
+// where the rays are known, each is matched with the face it meets when cast against the model.
 struct IcpResult {
   Iso3 P;
   int iterations = 0;
@@ -580,20 +582,21 @@ struct IcpResult {
 // A scan point, and the centroid of its neighbourhood: which model face and sample a point is matched with
 // is decided by the centroid, whose noise is a fraction of the point's own, so that the choice does not
 // depend on where the point's noise threw it (near an edge, a ray's noise moves a point both off the face and
-// along it; a choice by the point itself would keep one sign of the noise and drop the other).
+// along it; a choice by the point itself would keep one sign of the noise and drop the other). Where the ray
+// is known, the ray itself decides, and no noise enters the choice at all.
 struct ScanPoint {
   Vec3 raw, smooth;
-  Vec3 ray = Vec3::Zero();  ///< unit direction from the sensor to the point (table frame); zero if unknown
+  Vec3 ray = Vec3::Zero();     ///< unit direction from the sensor to the point (table frame), when known
   Vec3 origin = Vec3::Zero();  ///< the sensor's position (table frame), when the ray is known
-  double range = 0.0;
+  double range = 0.0;          ///< 0: the ray is not known
 };
 
-IcpResult icp(const std::vector<ScanPoint>& scan, Context& c, Iso3 P, int iterations, bool thin_walls) {
+IcpResult icp(const std::vector<ScanPoint>& scan, Context& c, Iso3 P, int iterations, bool fine) {
   IcpResult out;
   Model& m = c.model;
   // Far from the answer, a few closed-form point-to-point steps (each scan point moved onto its nearest
   // visible model sample) pull in faster and more steadily than linearized point-to-plane steps.
-  for (int it = 0; !thin_walls && it < c.s.point_to_point_iterations; ++it) {
+  for (int it = 0; !fine && it < c.s.point_to_point_iterations; ++it) {
     std::vector<Vec3> from, to;
     for (const ScanPoint& sp : scan) {
       const Vec3 p = P * sp.raw;
@@ -607,10 +610,7 @@ IcpResult icp(const std::vector<ScanPoint>& scan, Context& c, Iso3 P, int iterat
     if (from.size() < 20) break;
     P = planar_rigid_fit(from, to) * P;
   }
-  static const bool cast_env = !std::getenv("WT_NO_CAST");
-  const bool cast = cast_env && thin_walls && !scan.empty() && scan.front().range > 0;
-  static const int recast = std::getenv("WT_RECAST") ? std::atoi(std::getenv("WT_RECAST")) : 1;
-  static const double cast_wmin = std::getenv("WT_CWMIN") ? std::atof(std::getenv("WT_CWMIN")) : 0.0;
+  const bool cast = fine && !scan.empty() && scan.front().range > 0;
   std::vector<int> face(cast ? scan.size() : 0, -1);
   for (int it = 0; it < iterations; ++it) {
     const double f = iterations > 1 ? static_cast<double>(it) / (iterations - 1) : 1.0;
@@ -621,62 +621,42 @@ IcpResult icp(const std::vector<ScanPoint>& scan, Context& c, Iso3 P, int iterat
     if (cast) {
       // Each ray is matched with the face it would meet were the pose right: the choice depends on where the
       // sensor looked, never on where the range noise threw the point, so no sign of the noise is dropped.
-      if (it % recast == 0 || it == iterations - 1)
-        for (size_t i = 0; i < scan.size(); ++i) {
-          const ScanPoint& sp = scan[i];
-          const Vec3 o = P * sp.origin, d = P.linear() * sp.ray;
-          const double t = m.rays->hit(o, d, 0.0, sp.range + 0.02);
-          face[i] = -1;
-          if (!std::isfinite(t) || t < sp.range - 0.02) continue;
-          const Vec3 at = o + t * d;
-          const int k = m.nearest(at);
-          if (k < 0) continue;
-          const size_t kk = static_cast<size_t>(k);
-          if (std::abs(m.nrm[kk].z()) > 0.95 || m.nrm[kk].dot(d) >= 0.0 || !m.visible[kk] ||
-              m.edge_distance[kk] < c.edge_margin || at.z() < c.edge_margin)
-            continue;
-          face[i] = k;
-        }
+      for (size_t i = 0; i < scan.size(); ++i) {
+        const ScanPoint& sp = scan[i];
+        const Vec3 o = P * sp.origin, d = P.linear() * sp.ray;
+        const double t = m.rays->hit(o, d, 0.0, sp.range + kRayWindow);
+        face[i] = -1;
+        if (!std::isfinite(t) || t < sp.range - kRayWindow) continue;  // the ray meets something else
+        const Vec3 at = o + t * d;
+        const int k = m.nearest(at);
+        if (k < 0) continue;
+        const size_t kk = static_cast<size_t>(k);
+        // Level faces say nothing of (x, y, yaw); near a feature edge or the table, which face a ray meets
+        // changes with the pose itself.
+        if (std::abs(m.nrm[kk].z()) > 0.95 || m.nrm[kk].dot(d) >= 0.0 || !m.visible[kk] ||
+            m.edge_distance[kk] < c.edge_margin || at.z() < c.edge_margin)
+          continue;
+        face[i] = k;
+      }
       for (size_t i = 0; i < scan.size(); ++i) {
         if (face[i] < 0) continue;
         const size_t kk = static_cast<size_t>(face[i]);
         const Vec3& n = m.nrm[kk];
         const Vec3 p = P * scan[i].raw;
         const double r = (p - m.pts[kk]).dot(n);
-        double w = 1.0, limit = max_d;
-        if (cast_wmin > 0) {
-          const double dn = std::max(std::abs((P.linear() * scan[i].ray).dot(n)), cast_wmin);
-          w = 0.25 / (dn * dn);
-        }
-        if (std::abs(r) > limit) continue;
+        if (std::abs(r) > max_d) continue;
         const Vec3 J(p.x() * n.y() - p.y() * n.x(), n.x(), n.y());
-        A += w * J * J.transpose();
-        b -= w * J * r;
+        A += J * J.transpose();
+        b -= J * r;
         ++used;
       }
     }
     for (const ScanPoint& sp : scan) {
-      if (cast) break;
+      if (cast) break;  // the rays have been matched above
       const Vec3 p = P * sp.raw;
       const int k = m.nearest(P * sp.smooth);
       if (k < 0) continue;
-      size_t kk = static_cast<size_t>(k);
-      const bool seen_from = thin_walls && sp.ray.squaredNorm() > 0.5;
-      Vec3 ray = Vec3::Zero();
-      if (seen_from) {
-        // Where the sensor looked from tells the faces of a thin wall apart: a face is seen from its front
-        // only, so a point taken for a face seen from behind belongs to the face behind it (the other side
-        // of the wall), or to none.
-        ray = P.linear() * sp.ray;
-        if (ray.dot(m.nrm[kk]) >= 0.0) {
-          const double h = m.half_thickness[kk];
-          const int kb = m.nearest(m.pts[kk] - 2 * h * m.nrm[kk]);
-          if (h >= c.trim || kb < 0 || m.nrm[static_cast<size_t>(kb)].dot(m.nrm[kk]) > -0.5 ||
-              ray.dot(m.nrm[static_cast<size_t>(kb)]) >= 0.0)
-            continue;
-          kk = static_cast<size_t>(kb);
-        }
-      }
+      const size_t kk = static_cast<size_t>(k);
       if (m.edge_distance[kk] < c.edge_margin) continue;
       const Vec3& n = m.nrm[kk];
       const Vec3 d = p - m.pts[kk];
@@ -685,7 +665,7 @@ IcpResult icp(const std::vector<ScanPoint>& scan, Context& c, Iso3 P, int iterat
       const Vec3 J(p.x() * n.y() - p.y() * n.x(), n.x(), n.y());
       const double h = m.half_thickness[kk];
       double limit = max_d;
-      if (thin_walls && !seen_from && h < c.trim) {
+      if (fine && h < c.trim) {
         // A thin wall, seen on both sides: noise this wide carries points across its middle, so a point
         // taken for the side seen less (an inner wall seen only steeply) may well belong to the other side.
         // Only the better-seen side is used, trimmed at the middle so its own noise stays symmetric.
@@ -695,21 +675,14 @@ IcpResult icp(const std::vector<ScanPoint>& scan, Context& c, Iso3 P, int iterat
           continue;
         limit = std::min(max_d, h);
       }
-      double w = 1.0;
-      static const double wmin = std::getenv("WT_WMIN") ? std::atof(std::getenv("WT_WMIN")) : 0.0;
-      static const double wref = std::getenv("WT_WREF") ? std::atof(std::getenv("WT_WREF")) : 0.5;
-      static const bool wtrim = std::getenv("WT_WTRIM") != nullptr;
-      if (seen_from && wmin > 0) {
-        const double dn = std::max(std::abs(ray.dot(n)), wmin);
-        w = (wref / dn) * (wref / dn);
-        if (wtrim) limit *= dn;
-      }
       if (!m.visible[kk] || std::abs(r) > limit) continue;
-      A += w * J * J.transpose();
-      b -= w * J * r;
+      A += J * J.transpose();
+      b -= J * r;
       ++used;
     }
-    used += add_outline_terms(c, P, A, b);
+    // Without rays, the outline of a part too low to be told from the table is read from the height step;
+    // with them, the plate's own walls take part (the rays tell them from the table).
+    if (!cast) used += add_outline_terms(c, P, A, b);
     out.iterations = it + 1;
     if (used < 20) break;
     A += 1e-9 * Mat3::Identity();
@@ -876,9 +849,9 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   out.noise_m = noise;
   Context c(s, model);
   c.noise = noise;
-  c.trim = (std::getenv("WT_TRIM") ? std::atof(std::getenv("WT_TRIM")) : s.noise_trim) * noise;
+  c.trim = s.noise_trim * noise;
   c.inlier = std::max(0.0015, 2.5 * noise);
-  c.edge_margin = (std::getenv("WT_EDGE") ? std::atof(std::getenv("WT_EDGE")) : s.edge_margin_sigmas) * noise;
+  c.edge_margin = s.edge_margin_sigmas * noise;
   c.height_cut = std::max(s.min_height_m, s.height_cut_sigmas * noise);
   const Iso3 T_base_table = table_frame(out.table_plane), T_table_base = T_base_table.inverse();
   stage("table");
@@ -891,17 +864,18 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   c.low_sum.assign(c.low.on.size(), 0.0f);
   c.low_count.assign(c.low.on.size(), 0);
   const double low_top = c.outline_max_top + 3 * noise;
-  // With the sensor's position for every point, the fine refinement uses the points themselves with the
-  // direction each was seen from (a voxel's centroid would mix the two sides of a thin wall).
-  const bool rays = viewpoints_base.size() == scan_base.size() && !std::getenv("WT_NO_VP");
-  std::vector<ScanPoint> seen;
-  std::vector<uint32_t> seen_idx;  // every point near or above the table, when the rays are known
+  // With the sensor's position for every point, the fine refinement casts the rays themselves against the
+  // model (a voxel's centroid would mix the two sides of a thin wall, and a point's own position, thrown by
+  // the noise, cannot say which side it is on).
+  const bool rays = viewpoints_base.size() == scan_base.size();
+  std::vector<uint32_t> ray_points;  // every point near or above the table, when the rays are known
   for (size_t i = 0; i < scan_base.size(); ++i) {
     const Vec3& p = scan_base[i];
     const double rxy = p.head<2>().norm();
     if (rxy < s.base_keepout_m || rxy > s.reach_radius_m) continue;
     const Vec3 q = T_table_base * p;
-    if (rays && q.z() > -3 * noise && q.z() < model.height + 0.05) seen_idx.push_back(static_cast<uint32_t>(i));
+    if (rays && q.z() > -3 * noise && q.z() < model.height + 0.05)
+      ray_points.push_back(static_cast<uint32_t>(i));
     if (q.z() > -3 * noise && q.z() < low_top) {
       const long cell = c.low.index(q.x(), q.y());
       if (cell >= 0 && c.low_count[static_cast<size_t>(cell)] < 60000) {
@@ -911,10 +885,6 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
     }
     if (q.z() < s.min_height_m || q.z() > model.height + 0.05) continue;
     above.push_back(q);
-    if (rays && q.z() >= c.height_cut) {
-      const Vec3 ray = q - T_table_base * viewpoints_base[i];
-      if (ray.norm() > 1e-6) seen.push_back({q, q, ray.normalized()});
-    }
   }
   if (above.size() < 50) return finish("nothing stands on the table");
   Cloud::Ptr objects(new Cloud);
@@ -1065,10 +1035,9 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
     }
     return near;
   };
-  // With rays: every ray that may meet a face that can move (x, y, yaw) at pose P, chosen by where it
-  // points: table-level points near the footprint's outline (the plate's walls), and the rest unless deep
-  // inside a level face.
-  const Iso3 T_table_base_f = T_table_base;
+  // With rays: every ray that may meet a face that can move (x, y, yaw) at pose P: table-level points near
+  // the footprint's outline (the plate's walls), and the rest unless deep inside a level face (where no noise
+  // can carry a point off it).
   auto near_rays = [&](const Iso3& P) {
     std::vector<ScanPoint> near;
     const double band = 0.008, deep = 3 * noise + 0.002;
@@ -1076,8 +1045,8 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
       const long i = model.footprint.index(x.x(), x.y());
       return i >= 0 && model.footprint.on[static_cast<size_t>(i)];
     };
-    for (uint32_t i : seen_idx) {
-      const Vec3 q = T_table_base_f * scan_base[i];
+    for (uint32_t i : ray_points) {
+      const Vec3 q = T_table_base * scan_base[i];
       const Vec3 p = P * q;
       if (p.x() < model.lo.x() - 0.015 || p.y() < model.lo.y() - 0.015 || p.x() > model.hi.x() + 0.015 ||
           p.y() > model.hi.y() + 0.015)
@@ -1094,7 +1063,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
             model.edge_distance[static_cast<size_t>(k)] > deep)
           continue;
       }
-      const Vec3 o = T_table_base_f * viewpoints_base[i];
+      const Vec3 o = T_table_base * viewpoints_base[i];
       const double range = (q - o).norm();
       if (range < 1e-6) continue;
       near.push_back({q, q, (q - o) / range, o, range});
@@ -1127,9 +1096,8 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   coarse.resize(hyps.size());
   parallel_for(hyps.size(), s.threads, [&](size_t i) {
     const Iso3 P0 = planar_pose(hyps[i].x, hyps[i].y, 0.0, hyps[i].yaw).inverse();
-    const IcpResult r =
-        icp(thinned(near_pose(P0, icp_points), static_cast<size_t>(s.coarse_points)), c, P0, s.coarse_iterations,
-            false);
+    const IcpResult r = icp(thinned(near_pose(P0, icp_points), static_cast<size_t>(s.coarse_points)), c, P0,
+                            s.coarse_iterations, false);
     coarse[i] = {r.P, r, score(scan, scan_tree, footprint, c, r.P)};
   });
   // A pose that puts the part where the table is seen is no candidate; of the rest, the best few distinct.
@@ -1152,24 +1120,8 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   std::vector<Refined> refined(chosen.size());
   parallel_for(chosen.size(), s.threads, [&](size_t i) {
     const Iso3& P = chosen[i]->P;
-    static const bool cast_env = !std::getenv("WT_NO_CAST");
-    std::vector<ScanPoint> near =
-        thinned(cast_env && !seen_idx.empty() ? near_rays(P) : near_pose(P, seen.empty() ? icp_points : seen),
-                static_cast<size_t>(std::getenv("WT_ICPN") ? std::atoi(std::getenv("WT_ICPN")) : s.icp_max_points));
-    if (std::getenv("WT_DBG")) std::fprintf(stderr, "seen %zu near %zu rays %zu\n", seen.size(), near_pose(P, seen).size(), near_rays(P).size());
-    if (!seen.empty() && !(cast_env && !seen_idx.empty())) {
-      std::vector<int> idx;
-      std::vector<float> d2;
-      const float r2 = static_cast<float>(std::pow(std::max(0.004, 2 * noise), 2));
-      for (ScanPoint& sp : near) {
-        Vec3 mean = Vec3::Zero();
-        int n = 0;
-        if (scan_tree.nearestKSearch(pt(sp.raw), s.smoothing_neighbours, idx, d2) > 0)
-          for (size_t j = 0; j < idx.size(); ++j)
-            if (d2[j] <= r2) mean += scan[static_cast<size_t>(idx[j])], ++n;
-        if (n) sp.smooth = mean / n;
-      }
-    }
+    const std::vector<ScanPoint> near = thinned(ray_points.empty() ? near_pose(P, icp_points) : near_rays(P),
+                                                static_cast<size_t>(s.icp_max_points));
     const IcpResult f = icp(near, c, P, s.fine_iterations, true);
     refined[i] = {f.P, f, score(scan, scan_tree, footprint, c, f.P)};
   });

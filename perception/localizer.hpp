@@ -3,9 +3,13 @@
 // roll, pitch and height and gives the range noise sigma, which sets every later threshold. The remaining
 // (x, y, yaw) is searched globally by Hough voting of oriented wall points against the model — no initial
 // guess, no region of interest — and the most promising peaks are refined by an (x, y, yaw) point-to-plane
-// ICP that registers the scan onto the model with symmetric trimming: faces no scanner can see, samples near
-// feature edges and the less-seen side of thin walls are left out, matches are chosen by neighbourhood
-// centroids, and walls too low to tell from the table are read from the height step across the outline. The
+// ICP that registers the scan onto the model with symmetric trimming: faces no scanner can see and samples
+// near feature edges are left out. Where the cloud says where the sensor was for each point (a swept scan
+// does), every ray is cast against the model at the current pose and matched with the face it meets — the
+// choice depends on the ray, never on the range noise, so the two sides of a thin wall and the plate's low
+// walls are told apart exactly. Without viewpoints, the less-seen side of thin walls is left out, matches are
+// chosen by neighbourhood centroids, and walls too low to tell from the table are read from the height step
+// across the outline. The
 // verdict weighs coverage, fitness, free space (table seen where the part would stand), the walls' residual
 // against the noise, and ambiguity between distinct poses (poses the part's own symmetry, or its seams, map
 // onto each other are equal).
