@@ -35,6 +35,7 @@ nlohmann::json pose_to_json(const PoseEstimate& pose) {
   out["inliers"] = pose.inliers;
   out["table_plane"] = {pose.table_plane[0], pose.table_plane[1], pose.table_plane[2], pose.table_plane[3]};
   out["object_points"] = pose.object_points;
+  out["rays_cast"] = pose.rays_cast;
   return out;
 }
 

@@ -1155,6 +1155,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   out.converged = best.icp.converged;
   out.iterations = best.icp.iterations;
   out.inliers = best.score.inliers;
+  out.rays_cast = !ray_points.empty();
   stage("verdict");
   if (out.free_space > s.max_free_space)
     return finish("part not found: the table is seen where the best match would stand");

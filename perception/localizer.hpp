@@ -84,6 +84,7 @@ struct PoseEstimate {
   int inliers = 0;
   Eigen::Vector4d table_plane = Eigen::Vector4d::Zero();  ///< n.x + d = 0, n up, base frame
   int object_points = 0;                                  ///< points above the table after voxelisation
+  bool rays_cast = false;  ///< refined by casting each point's ray from its viewpoint (the cloud had them)
   double seconds = 0.0;
   std::vector<std::pair<std::string, double>>
       stage_seconds;  ///< model, table, objects, search, refine, verdict

@@ -144,6 +144,18 @@ TEST(Cli, ScanWritesLogCloudAndTruth) {
   const std::string truth((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   for (const char* key : {"T_base_part", "T_base_clamp", "point_labels_rle", "seam_coverage", "\"seed\": 5"})
     EXPECT_NE(truth.find(key), std::string::npos) << key;
+  // The cloud says where the LiDAR was for every point (PCL's PointWithViewpoint), and localize uses it.
+  std::ifstream pcd(dir / "s.pcd");
+  std::string line;
+  while (std::getline(pcd, line) && line.rfind("FIELDS", 0) != 0) {
+  }
+  EXPECT_EQ(line, "FIELDS x y z vp_x vp_y vp_z");
+  const CliRun loc = weldtwin("localize --model " + test::repo("scenes/parts/tube_tee.stl") + " --scan " +
+                              (dir / "s.pcd").string() + " --out " + (dir / "pose.json").string());
+  EXPECT_EQ(loc.code, 0) << loc.err;
+  std::ifstream pose(dir / "pose.json");
+  const std::string pose_text((std::istreambuf_iterator<char>(pose)), std::istreambuf_iterator<char>());
+  EXPECT_NE(pose_text.find("\"rays_cast\": true"), std::string::npos) << pose_text;
 }
 
 TEST(Cli, ReplayJudgesAPlanInTheCellItWasMadeForAndNotElsewhere) {
