@@ -18,13 +18,14 @@
 
 #include <pcl/console/print.h>
 #include <pcl/filters/voxel_grid.h>
-#include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/point_types.h>
 #include <pcl/sample_consensus/method_types.h>
 #include <pcl/sample_consensus/model_types.h>
 #include <pcl/segmentation/sac_segmentation.h>
 
 #include "perception/mesh_rays.hpp"
+
+#include <nanoflann.hpp>
 
 namespace weldtwin {
 namespace {
@@ -48,6 +49,47 @@ double median(std::vector<double> v) {
   std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
   return v[v.size() / 2];
 }
+
+// Nearest neighbours among fixed points: nanoflann's kd-tree. A query is a plain function call (PCL's FLANN
+// wrapper opens an OpenMP region and allocates for every single-point query, which made those queries most
+// of a localization's time).
+class PointTree {
+ public:
+  explicit PointTree(std::vector<Vec3> points = {}) : data_(std::make_unique<Data>()) {
+    data_->pts = std::move(points);
+    index_ = std::make_unique<Index>(3, *data_, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+  }
+  /// The k nearest points, nearest first: indices and squared distances. Returns how many.
+  size_t knn(const Vec3& q, size_t k, std::vector<uint32_t>& idx, std::vector<double>& d2) const {
+    idx.resize(k);
+    d2.resize(k);
+    const size_t n = data_->pts.empty() ? 0 : index_->knnSearch(q.data(), k, idx.data(), d2.data());
+    idx.resize(n);
+    d2.resize(n);
+    return n;
+  }
+  /// The nearest point's index (-1 if there are none) and its squared distance.
+  int nearest(const Vec3& q, double& d2) const {
+    if (data_->pts.empty()) return -1;
+    uint32_t i = 0;
+    index_->knnSearch(q.data(), 1, &i, &d2);
+    return static_cast<int>(i);
+  }
+
+ private:
+  struct Data {
+    std::vector<Vec3> pts;
+    size_t kdtree_get_point_count() const { return pts.size(); }
+    double kdtree_get_pt(size_t i, size_t d) const { return pts[i][static_cast<Eigen::Index>(d)]; }
+    template <class Box>
+    bool kdtree_get_bbox(Box&) const {
+      return false;
+    }
+  };
+  using Index = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Data>, Data, 3>;
+  std::unique_ptr<Data> data_;  // the index refers to it: it must not move
+  std::unique_ptr<Index> index_;
+};
 
 // ---------------------------------------------------------------------------------------------- the table
 
@@ -252,7 +294,7 @@ struct Model {
   std::vector<uint8_t> visible;     // seen from outside (a scanner above the table can see it at all)
   std::vector<uint8_t> view_score;  // how many of the test directions see it (more: seen more often)
   std::vector<float> half_thickness, edge_distance;
-  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
+  PointTree tree;
   std::unique_ptr<MeshRays> rays;             // the mesh itself, resting on z = 0 (part frame)
   Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();  // bounding box of the samples
   double radius = 0.0, height = 0.0;
@@ -288,9 +330,8 @@ struct Model {
       const Vec3 c =
           cache_origin + cache_cell * Vec3(static_cast<double>(ix) + 0.5, static_cast<double>(iy) + 0.5,
                                            static_cast<double>(iz) + 0.5);
-      std::vector<int> idx(1);
-      std::vector<float> d2(1);
-      known = tree.nearestKSearch(pt(c), 1, idx, d2) > 0 ? idx[0] : -1;
+      double d2 = 0.0;
+      known = tree.nearest(c, d2);
       __atomic_store_n(slot, known, __ATOMIC_RELAXED);
     }
     return known;
@@ -387,19 +428,17 @@ void build_model(const Mesh& mesh, double min_z, const LocalizeSetting& s, Model
     model.radius = std::max(model.radius, p.head<2>().norm());
   }
   model.height = model.hi.z();
-  model.tree.setInputCloud(to_cloud(model.pts));
+  model.tree = PointTree(model.pts);
 
   // Distance of every sample to the nearest feature edge.
   model.edge_distance.assign(n, 1.0f);
   const std::vector<Vec3> edge_pts = feature_edge_points(rest, 0.0);
   if (!edge_pts.empty()) {
-    pcl::KdTreeFLANN<pcl::PointXYZ> edge_tree;
-    edge_tree.setInputCloud(to_cloud(edge_pts));
-    std::vector<int> idx(1);
-    std::vector<float> d2(1);
+    const PointTree edge_tree(edge_pts);
+    double d2 = 0.0;
     for (size_t k = 0; k < n; ++k)
-      if (edge_tree.nearestKSearch(pt(model.pts[k]), 1, idx, d2) > 0)
-        model.edge_distance[k] = std::sqrt(d2[0]);
+      if (edge_tree.nearest(model.pts[k], d2) >= 0)
+        model.edge_distance[k] = static_cast<float>(std::sqrt(d2));
   }
 
   // Wall samples by height for the Hough vote.
@@ -704,8 +743,8 @@ struct Score {
   double support() const { return inliers * coverage * std::max(0.0, 1.0 - free_space / max_free); }
 };
 
-Score score(const std::vector<Vec3>& scan, pcl::KdTreeFLANN<pcl::PointXYZ>& scan_tree, const Grid2& footprint,
-            Context& c, const Iso3& P) {
+Score score(const std::vector<Vec3>& scan, const PointTree& scan_tree, const Grid2& footprint, Context& c,
+            const Iso3& P) {
   Score out;
   Model& m = c.model;
   double sum2 = 0.0;
@@ -736,12 +775,11 @@ Score score(const std::vector<Vec3>& scan, pcl::KdTreeFLANN<pcl::PointXYZ>& scan
   const Iso3 T = P.inverse();
   const double reach = std::max(0.004, 2 * c.noise);
   int seen = 0, total = 0;
-  std::vector<int> idx(1);
-  std::vector<float> d2(1);
+  double d2 = 0.0;
   for (size_t k = 0; k < m.pts.size(); k += 3) {
     if (!m.visible[k] || m.nrm[k].z() < -0.2 || m.pts[k].z() < c.height_cut) continue;
     ++total;
-    if (scan_tree.nearestKSearch(pt(T * m.pts[k]), 1, idx, d2) > 0 && d2[0] < reach * reach) ++seen;
+    if (scan_tree.nearest(T * m.pts[k], d2) >= 0 && d2 < reach * reach) ++seen;
   }
   out.coverage = total ? static_cast<double>(seen) / total : 0.0;
   // Free space: the table seen where the part would rest on it, clearly below the part's lowest surface
@@ -766,12 +804,11 @@ Score score(const std::vector<Vec3>& scan, pcl::KdTreeFLANN<pcl::PointXYZ>& scan
 bool self_similar(Model& model, const Iso3& D) {
   double sum = 0.0;
   int n = 0;
-  std::vector<int> idx(1);
-  std::vector<float> d2(1);
+  double d2 = 0.0;
   for (size_t k = 0; k < model.pts.size(); k += 7) {
     if (!model.visible[k]) continue;
-    if (model.tree.nearestKSearch(pt(D * model.pts[k]), 1, idx, d2) < 1) continue;
-    sum += std::sqrt(d2[0]);
+    if (model.tree.nearest(D * model.pts[k], d2) < 0) continue;
+    sum += std::sqrt(d2);
     ++n;
   }
   return n > 0 && sum / n < 0.0015;
@@ -900,8 +937,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   std::vector<Vec3> scan;
   scan.reserve(objects->size());
   for (const auto& p : *objects) scan.emplace_back(p.x, p.y, p.z);
-  pcl::KdTreeFLANN<pcl::PointXYZ> scan_tree;
-  scan_tree.setInputCloud(objects);
+  const PointTree scan_tree(scan);
   const Grid2 footprint =
       eroded(model.footprint, static_cast<int>(std::ceil(std::max(0.003, 2 * noise) / 0.002)));
   stage("objects");
@@ -919,17 +955,16 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
     return (static_cast<long long>(ix + 100000) * 200003LL + (iy + 100000)) * 1024LL + iw;
   };
   const size_t stride = std::max<size_t>(1, voters.size() / static_cast<size_t>(s.vote_points));
-  std::vector<int> nidx;
-  std::vector<float> nd2;
+  std::vector<uint32_t> nidx;
+  std::vector<double> nd2;
   for (size_t v = 0; v < voters.size(); v += stride) {
     const Vec3& q = scan[voters[v]];
-    if (scan_tree.nearestKSearch(pt(q), s.normal_neighbours, nidx, nd2) < 6) continue;
+    if (scan_tree.knn(q, static_cast<size_t>(s.normal_neighbours), nidx, nd2) < 6) continue;
     Vec3 mean = Vec3::Zero();
-    for (int j : nidx) mean += scan[static_cast<size_t>(j)];
+    for (uint32_t j : nidx) mean += scan[j];
     mean /= static_cast<double>(nidx.size());
     Mat3 C = Mat3::Zero();
-    for (int j : nidx)
-      C += (scan[static_cast<size_t>(j)] - mean) * (scan[static_cast<size_t>(j)] - mean).transpose();
+    for (uint32_t j : nidx) C += (scan[j] - mean) * (scan[j] - mean).transpose();
     const Eigen::SelfAdjointEigenSolver<Mat3> eig(C);
     const Vec3 nn = eig.eigenvectors().col(0);
     if (std::abs(nn.z()) > 0.5) continue;
@@ -999,16 +1034,16 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   // take part.
   std::vector<ScanPoint> icp_points;
   {
-    std::vector<int> idx;
-    std::vector<float> d2;
-    const float r2 = static_cast<float>(std::pow(std::max(0.004, 2 * noise), 2));
+    std::vector<uint32_t> idx;
+    std::vector<double> d2;
+    const double r2 = std::pow(std::max(0.004, 2 * noise), 2);
     for (const Vec3& q : scan) {
       if (q.z() < c.height_cut) continue;
       Vec3 mean = Vec3::Zero();
       int n = 0;
-      if (scan_tree.nearestKSearch(pt(q), s.smoothing_neighbours, idx, d2) > 0)
+      if (scan_tree.knn(q, static_cast<size_t>(s.smoothing_neighbours), idx, d2) > 0)
         for (size_t j = 0; j < idx.size(); ++j)
-          if (d2[j] <= r2) mean += scan[static_cast<size_t>(idx[j])], ++n;
+          if (d2[j] <= r2) mean += scan[idx[j]], ++n;
       icp_points.push_back({q, n ? Vec3(mean / n) : q});
     }
   }
