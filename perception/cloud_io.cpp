@@ -1,28 +1,373 @@
+// PCD and PLY point clouds, read and written here rather than through PCL's I/O module: that module pulls in
+// VTK, OpenNI and some forty other libraries whose loading cost every `weldtwin` process 0.1-0.15 s before
+// main(), and its ASCII reader took another 0.1 s for 58,000 points (see benchmarks/RESULTS.md). The formats
+// are PCL's own (PCD 0.7: ascii, binary and binary_compressed through liblzf, as PCL writes it) and the
+// Stanford PLY (ascii, binary little and big endian); tests check both against PCL's reader and writer.
 #include "perception/cloud_io.hpp"
 
-#include <pcl/PCLPointCloud2.h>
-#include <pcl/common/io.h>
-#include <pcl/conversions.h>
-#include <pcl/io/pcd_io.h>
-#include <pcl/io/ply_io.h>
-#include <pcl/point_types.h>
+#include <liblzf/lzf.h>
+
+#include <algorithm>
+#include <charconv>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
 
 #include "core/error.hpp"
 
 namespace weldtwin {
 namespace {
 
-template <typename PointT>
-void write_cloud(const std::string& path, const pcl::PointCloud<PointT>& cloud, bool ascii) {
-  pcl::PCDWriter writer;
-  const int rc = cloud.empty() ? writer.writeASCII(path, cloud) : writer.write(path, cloud, !ascii);
-  if (rc != 0) throw std::runtime_error(path + ": cannot write the point cloud");
+std::string read_file(const std::string& path) {
+  if (!std::filesystem::is_regular_file(path)) throw input_error(path, "no such file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw input_error(path, "cannot open the file");
+  std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (data.empty()) throw input_error(path, "empty file");
+  return data;
 }
 
-bool finite(const Vec3& p) {
-  return p.allFinite();
+// A scalar of `size` bytes and kind F (float), I (signed) or U (unsigned) at p, as a double.
+double scalar(const char* p, char kind, int size, bool big_endian = false) {
+  unsigned char b[8];
+  std::memcpy(b, p, static_cast<size_t>(size));
+  if (big_endian) std::reverse(b, b + size);
+  switch (kind) {
+    case 'F':
+      if (size == 4) {
+        float f;
+        std::memcpy(&f, b, 4);
+        return f;
+      } else {
+        double d;
+        std::memcpy(&d, b, 8);
+        return d;
+      }
+    case 'I': {
+      int64_t v = 0;
+      std::memcpy(&v, b, static_cast<size_t>(size));
+      const int shift = 64 - 8 * size;  // sign-extend
+      return static_cast<double>(static_cast<int64_t>(static_cast<uint64_t>(v) << shift) >> shift);
+    }
+    default: {
+      uint64_t v = 0;
+      std::memcpy(&v, b, static_cast<size_t>(size));
+      return static_cast<double>(v);
+    }
+  }
+}
+
+bool parse_double(const char*& p, const char* end, double& v) {
+  while (p < end && (*p == ' ' || *p == '\t' || *p == '\r')) ++p;
+  if (p >= end || *p == '\n') return false;
+  const char* start = p;
+  while (p < end && !std::isspace(static_cast<unsigned char>(*p))) ++p;
+  const auto r = std::from_chars(start, p, v);
+  if (r.ec == std::errc() && r.ptr == p) return true;
+  std::string token(start, p);  // nan, inf, +1.5 and the like
+  char* stop = nullptr;
+  v = std::strtod(token.c_str(), &stop);
+  return stop && *stop == '\0' && stop != token.c_str();
+}
+
+// The layout of one point record: where x, y, z and (if present) vp_x, vp_y, vp_z are.
+struct Field {
+  std::string name;
+  int size = 4, count = 1;
+  char kind = 'F';
+  size_t offset = 0;  // byte offset in a binary record
+  int column = 0;     // first value's index in an ascii line
+};
+
+struct Layout {
+  std::vector<Field> fields;
+  int want[6] = {-1, -1, -1, -1, -1, -1};  // x y z vp_x vp_y vp_z -> field index
+  size_t record = 0;                       // bytes per point (binary)
+  bool has_viewpoints() const { return want[3] >= 0 && want[4] >= 0 && want[5] >= 0; }
+};
+
+void collect(const Vec3& p, const Vec3& v, bool with_vp, std::vector<Vec3>& out, std::vector<Vec3>* vps,
+             size_t& dropped) {
+  if (!p.allFinite() || (with_vp && !v.allFinite())) {
+    ++dropped;
+    return;
+  }
+  out.push_back(p);
+  if (with_vp) vps->push_back(v);
+}
+
+std::vector<Vec3> read_pcd(const std::string& path, size_t& dropped, std::vector<Vec3>* viewpoints) {
+  const std::string data = read_file(path);
+  Layout L;
+  std::vector<std::string> names, sizes, types, counts;
+  size_t points = 0, width = 0, height = 1, pos = 0;
+  bool have_points = false;
+  std::string format;
+  auto words = [](const std::string& line) {
+    std::istringstream in(line);
+    std::vector<std::string> w;
+    for (std::string s; in >> s;) w.push_back(s);
+    return w;
+  };
+  while (pos < data.size() && format.empty()) {
+    const size_t eol = data.find('\n', pos);
+    if (eol == std::string::npos) break;
+    const std::string line = data.substr(pos, eol - pos);
+    pos = eol + 1;
+    std::vector<std::string> w = words(line);
+    if (w.empty() || w[0][0] == '#') continue;
+    const std::string key = w[0];
+    w.erase(w.begin());
+    try {
+      if (key == "FIELDS" || key == "COLUMNS")
+        names = w;
+      else if (key == "SIZE")
+        sizes = w;
+      else if (key == "TYPE")
+        types = w;
+      else if (key == "COUNT")
+        counts = w;
+      else if (key == "WIDTH" && !w.empty())
+        width = std::stoul(w[0]);
+      else if (key == "HEIGHT" && !w.empty())
+        height = std::stoul(w[0]);
+      else if (key == "POINTS" && !w.empty())
+        points = std::stoul(w[0]), have_points = true;
+      else if (key == "DATA" && !w.empty())
+        format = w[0];
+    } catch (const std::exception&) {
+      throw input_error(path, "malformed PCD header line '" + line + "'");
+    }
+  }
+  if (format.empty()) throw input_error(path, "malformed or truncated point cloud (no DATA line)");
+  if (!have_points) points = width * height;
+  if (names.empty() || sizes.size() != names.size() || types.size() != names.size() ||
+      (!counts.empty() && counts.size() != names.size()))
+    throw input_error(path, "malformed PCD header: FIELDS, SIZE, TYPE and COUNT disagree");
+  static const char* wanted[6] = {"x", "y", "z", "vp_x", "vp_y", "vp_z"};
+  int column = 0;
+  for (size_t i = 0; i < names.size(); ++i) {
+    Field f;
+    f.name = names[i];
+    f.kind = types[i].empty() ? '?' : types[i][0];
+    f.size = std::atoi(sizes[i].c_str());
+    f.count = counts.empty() ? 1 : std::atoi(counts[i].c_str());
+    if ((f.kind != 'F' && f.kind != 'I' && f.kind != 'U') ||
+        (f.size != 1 && f.size != 2 && f.size != 4 && f.size != 8) ||
+        (f.kind == 'F' && f.size != 4 && f.size != 8) || f.count < 1)
+      throw input_error(path, "malformed PCD header: field '" + f.name + "' of type " + types[i] + sizes[i]);
+    f.offset = L.record;
+    f.column = column;
+    L.record += static_cast<size_t>(f.size) * static_cast<size_t>(f.count);
+    column += f.count;
+    for (int k = 0; k < 6; ++k)
+      if (f.name == wanted[k]) L.want[k] = static_cast<int>(i);
+    L.fields.push_back(f);
+  }
+  if (L.want[0] < 0 || L.want[1] < 0 || L.want[2] < 0)
+    throw input_error(path, "the cloud has no x, y, z fields");
+  const bool with_vp = viewpoints && L.has_viewpoints();
+  std::vector<Vec3> out;
+  out.reserve(points);
+  if (with_vp) viewpoints->reserve(points);
+  Vec3 p, v = Vec3::Zero();
+  if (format == "ascii") {
+    const char* c = data.data() + pos;
+    const char* end = data.data() + data.size();
+    std::vector<double> values(static_cast<size_t>(column));
+    size_t read = 0;
+    while (read < points && c < end) {
+      const char* eol = static_cast<const char*>(std::memchr(c, '\n', static_cast<size_t>(end - c)));
+      if (!eol) eol = end;
+      size_t n = 0;
+      for (double x; n < values.size() && parse_double(c, eol, x);) values[n++] = x;
+      if (n == 0) {  // a blank line
+        c = eol + 1;
+        continue;
+      }
+      if (n < values.size())
+        throw input_error(path, "malformed PCD: point " + std::to_string(read) + " has " + std::to_string(n) +
+                                    " of " + std::to_string(values.size()) + " values");
+      auto at = [&](int k) {
+        return values[static_cast<size_t>(L.fields[static_cast<size_t>(L.want[k])].column)];
+      };
+      p = Vec3(at(0), at(1), at(2));
+      if (with_vp) v = Vec3(at(3), at(4), at(5));
+      collect(p, v, with_vp, out, viewpoints, dropped);
+      ++read;
+      c = eol + 1;
+    }
+    if (read < points)
+      throw input_error(path, "truncated point cloud: " + std::to_string(read) + " of " +
+                                  std::to_string(points) + " points");
+  } else if (format == "binary" || format == "binary_compressed") {
+    std::string unpacked;
+    const char* body = data.data() + pos;
+    size_t body_size = data.size() - pos;
+    if (format == "binary_compressed") {
+      uint32_t sizes2[2] = {0, 0};
+      if (body_size < 8) throw input_error(path, "truncated point cloud (no compressed block)");
+      std::memcpy(sizes2, body, 8);
+      if (sizes2[0] > body_size - 8 || sizes2[1] != L.record * points)
+        throw input_error(path, "truncated or malformed compressed point cloud");
+      unpacked.resize(sizes2[1]);
+      if (sizes2[1] > 0 && lzf_decompress(body + 8, sizes2[0], unpacked.data(), sizes2[1]) != sizes2[1])
+        throw input_error(path, "malformed compressed point cloud (LZF)");
+      body = unpacked.data();
+      body_size = unpacked.size();
+    }
+    if (body_size < L.record * points)
+      throw input_error(
+          path, "truncated point cloud: " + std::to_string(body_size / std::max<size_t>(1, L.record)) +
+                    " of " + std::to_string(points) + " points");
+    const bool soa = format == "binary_compressed";  // compressed: each field's values one after the other
+    auto at = [&](size_t i, int k) {
+      const Field& f = L.fields[static_cast<size_t>(L.want[k])];
+      const size_t off =
+          soa ? f.offset * points + i * static_cast<size_t>(f.size) * static_cast<size_t>(f.count)
+              : i * L.record + f.offset;
+      return scalar(body + off, f.kind, f.size);
+    };
+    for (size_t i = 0; i < points; ++i) {
+      p = Vec3(at(i, 0), at(i, 1), at(i, 2));
+      if (with_vp) v = Vec3(at(i, 3), at(i, 4), at(i, 5));
+      collect(p, v, with_vp, out, viewpoints, dropped);
+    }
+  } else {
+    throw input_error(path, "unknown PCD data format '" + format + "'");
+  }
+  return out;
+}
+
+// PLY: the vertex element's x, y, z (and vp_x, vp_y, vp_z if there); elements before it are skipped.
+std::vector<Vec3> read_ply(const std::string& path, size_t& dropped, std::vector<Vec3>* viewpoints) {
+  const std::string data = read_file(path);
+  struct Prop {
+    std::string name;
+    char kind = 'F';
+    int size = 4;
+    bool list = false;
+    char count_kind = 'U';
+    int count_size = 1;
+  };
+  struct Element {
+    std::string name;
+    size_t count = 0;
+    std::vector<Prop> props;
+  };
+  auto type_of = [&](const std::string& t, char& kind, int& size) {
+    static const std::pair<const char*, std::pair<char, int>> types[] = {
+        {"char", {'I', 1}},  {"int8", {'I', 1}},    {"uchar", {'U', 1}},  {"uint8", {'U', 1}},
+        {"short", {'I', 2}}, {"int16", {'I', 2}},   {"ushort", {'U', 2}}, {"uint16", {'U', 2}},
+        {"int", {'I', 4}},   {"int32", {'I', 4}},   {"uint", {'U', 4}},   {"uint32", {'U', 4}},
+        {"float", {'F', 4}}, {"float32", {'F', 4}}, {"double", {'F', 8}}, {"float64", {'F', 8}}};
+    for (const auto& [name, ks] : types)
+      if (t == name) {
+        kind = ks.first;
+        size = ks.second;
+        return;
+      }
+    throw input_error(path, "malformed PLY header: unknown type '" + t + "'");
+  };
+  if (data.compare(0, 3, "ply") != 0) throw input_error(path, "not a PLY file (no 'ply' magic)");
+  std::vector<Element> elements;
+  std::string format;
+  size_t pos = 0;
+  bool ended = false;
+  while (pos < data.size()) {
+    const size_t eol = data.find('\n', pos);
+    if (eol == std::string::npos) break;
+    std::istringstream line(data.substr(pos, eol - pos));
+    pos = eol + 1;
+    std::string key;
+    line >> key;
+    if (key == "format") {
+      line >> format;
+    } else if (key == "element") {
+      Element e;
+      line >> e.name >> e.count;
+      if (!line) throw input_error(path, "malformed PLY header: element line");
+      elements.push_back(e);
+    } else if (key == "property") {
+      if (elements.empty()) throw input_error(path, "malformed PLY header: property before any element");
+      Prop p;
+      std::string t;
+      line >> t;
+      if (t == "list") {
+        std::string ct, it;
+        line >> ct >> it;
+        p.list = true;
+        type_of(ct, p.count_kind, p.count_size);
+        type_of(it, p.kind, p.size);
+      } else {
+        type_of(t, p.kind, p.size);
+      }
+      line >> p.name;
+      elements.back().props.push_back(p);
+    } else if (key == "end_header") {
+      ended = true;
+      break;
+    }
+  }
+  if (!ended) throw input_error(path, "malformed or truncated PLY header (no end_header)");
+  const bool ascii = format == "ascii", big = format == "binary_big_endian";
+  if (!ascii && !big && format != "binary_little_endian")
+    throw input_error(path, "unknown PLY format '" + format + "'");
+  std::vector<Vec3> out;
+  const char* c = data.data() + pos;
+  const char* end = data.data() + data.size();
+  auto truncated = [&]() { return input_error(path, "truncated PLY data"); };
+  for (const Element& e : elements) {
+    const bool vertex = e.name == "vertex";
+    int want[6] = {-1, -1, -1, -1, -1, -1};
+    static const char* wanted[6] = {"x", "y", "z", "vp_x", "vp_y", "vp_z"};
+    for (size_t i = 0; i < e.props.size(); ++i)
+      for (int k = 0; k < 6; ++k)
+        if (!e.props[i].list && e.props[i].name == wanted[k]) want[k] = static_cast<int>(i);
+    if (vertex && (want[0] < 0 || want[1] < 0 || want[2] < 0))
+      throw input_error(path, "the cloud has no x, y, z fields");
+    const bool with_vp = vertex && viewpoints && want[3] >= 0 && want[4] >= 0 && want[5] >= 0;
+    std::vector<double> values(e.props.size(), 0.0);
+    for (size_t n = 0; n < e.count; ++n) {
+      for (size_t i = 0; i < e.props.size(); ++i) {
+        const Prop& p = e.props[i];
+        if (ascii) {
+          double x = 0.0;
+          while (c < end && std::isspace(static_cast<unsigned char>(*c))) ++c;
+          if (!parse_double(c, end, x)) throw truncated();
+          if (p.list) {
+            for (long k = 0; k < static_cast<long>(x); ++k) {
+              double item;
+              while (c < end && std::isspace(static_cast<unsigned char>(*c))) ++c;
+              if (!parse_double(c, end, item)) throw truncated();
+            }
+          } else {
+            values[i] = x;
+          }
+        } else if (p.list) {
+          if (end - c < p.count_size) throw truncated();
+          const double k = scalar(c, p.count_kind, p.count_size, big);
+          c += p.count_size;
+          if (k < 0 || (end - c) / p.size < k) throw truncated();
+          c += static_cast<size_t>(k) * static_cast<size_t>(p.size);
+        } else {
+          if (end - c < p.size) throw truncated();
+          values[i] = scalar(c, p.kind, p.size, big);
+          c += p.size;
+        }
+      }
+      if (!vertex) continue;
+      auto at = [&](int k) { return values[static_cast<size_t>(want[k])]; };
+      collect(Vec3(at(0), at(1), at(2)), with_vp ? Vec3(at(3), at(4), at(5)) : Vec3::Zero(), with_vp, out,
+              viewpoints, dropped);
+    }
+    if (vertex) break;
+  }
+  return out;
 }
 
 }  // namespace
@@ -31,79 +376,54 @@ void write_pcd(const std::string& path, const std::vector<Vec3>& points, bool as
                const std::vector<Vec3>* viewpoints) {
   if (viewpoints && viewpoints->size() != points.size())
     throw std::invalid_argument(path + ": one viewpoint per point is needed");
-  auto f = [](double v) { return static_cast<float>(v); };
-  if (viewpoints) {
-    pcl::PointCloud<pcl::PointWithViewpoint> cloud;
-    cloud.resize(points.size());
-    for (size_t i = 0; i < points.size(); ++i) {
-      const Vec3 &p = points[i], &v = (*viewpoints)[i];
-      cloud[i] = pcl::PointWithViewpoint(f(p.x()), f(p.y()), f(p.z()), f(v.x()), f(v.y()), f(v.z()));
+  const size_t n = points.size();
+  const bool vp = viewpoints != nullptr;
+  std::ostringstream head;
+  head << "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\n"
+       << (vp ? "FIELDS x y z vp_x vp_y vp_z\nSIZE 4 4 4 4 4 4\nTYPE F F F F F F\nCOUNT 1 1 1 1 1 1\n"
+              : "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n")
+       << "WIDTH " << n << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << n << "\nDATA "
+       << (ascii ? "ascii" : "binary") << "\n";
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) throw std::runtime_error(path + ": cannot write the point cloud");
+  out << head.str();
+  const size_t per = vp ? 6 : 3;
+  if (ascii) {
+    char buf[48];
+    for (size_t i = 0; i < n; ++i) {
+      for (size_t k = 0; k < per; ++k) {
+        const float f = static_cast<float>(k < 3 ? points[i][static_cast<Eigen::Index>(k)]
+                                                 : (*viewpoints)[i][static_cast<Eigen::Index>(k - 3)]);
+        const auto r = std::to_chars(buf, buf + sizeof buf, f);
+        out.write(buf, r.ptr - buf);
+        out.put(k + 1 < per ? ' ' : '\n');
+      }
     }
-    cloud.width = static_cast<uint32_t>(points.size());
-    cloud.height = 1;
-    write_cloud(path, cloud, ascii);
-    return;
+  } else {
+    std::vector<float> body(n * per);
+    for (size_t i = 0; i < n; ++i)
+      for (size_t k = 0; k < per; ++k)
+        body[i * per + k] = static_cast<float>(k < 3 ? points[i][static_cast<Eigen::Index>(k)]
+                                                     : (*viewpoints)[i][static_cast<Eigen::Index>(k - 3)]);
+    out.write(reinterpret_cast<const char*>(body.data()),
+              static_cast<std::streamsize>(body.size() * sizeof(float)));
   }
-  pcl::PointCloud<pcl::PointXYZ> cloud;
-  cloud.resize(points.size());
-  for (size_t i = 0; i < points.size(); ++i)
-    cloud[i] = pcl::PointXYZ(f(points[i].x()), f(points[i].y()), f(points[i].z()));
-  cloud.width = static_cast<uint32_t>(points.size());
-  cloud.height = 1;
-  write_cloud(path, cloud, ascii);
+  if (!out) throw std::runtime_error(path + ": cannot write the point cloud");
 }
 
 std::vector<Vec3> read_cloud(const std::string& path, size_t* dropped_non_finite,
                              std::vector<Vec3>* viewpoints) {
-  if (!std::filesystem::is_regular_file(path)) throw input_error(path, "no such file");
-  if (std::filesystem::file_size(path) == 0) throw input_error(path, "empty file");
   const std::string ext = std::filesystem::path(path).extension().string();
-  pcl::PCLPointCloud2 blob;
-  int rc = -1;
-  if (ext == ".pcd" || ext == ".PCD") {
-    pcl::PCDReader reader;
-    rc = reader.read(path, blob);
-  } else if (ext == ".ply" || ext == ".PLY") {
-    pcl::PLYReader reader;
-    rc = reader.read(path, blob);
-  } else {
-    throw input_error(path, "unknown cloud format '" + ext + "' (expected .pcd or .ply)");
-  }
-  if (rc < 0) throw input_error(path, "malformed or truncated point cloud");
-  if (pcl::getFieldIndex(blob, "x") < 0 || pcl::getFieldIndex(blob, "y") < 0 ||
-      pcl::getFieldIndex(blob, "z") < 0)
-    throw input_error(path, "the cloud has no x, y, z fields");
-  const bool with_vp = viewpoints && pcl::getFieldIndex(blob, "vp_x") >= 0 &&
-                       pcl::getFieldIndex(blob, "vp_y") >= 0 && pcl::getFieldIndex(blob, "vp_z") >= 0;
   if (viewpoints) viewpoints->clear();
-  std::vector<Vec3> out;
   size_t dropped = 0;
-  if (with_vp) {
-    pcl::PointCloud<pcl::PointWithViewpoint> cloud;
-    pcl::fromPCLPointCloud2(blob, cloud);
-    out.reserve(cloud.size());
-    viewpoints->reserve(cloud.size());
-    for (const auto& p : cloud) {
-      const Vec3 x(p.x, p.y, p.z), v(p.vp_x, p.vp_y, p.vp_z);
-      if (!finite(x) || !finite(v)) {
-        ++dropped;
-        continue;
-      }
-      out.push_back(x);
-      viewpoints->push_back(v);
-    }
+  std::vector<Vec3> out;
+  if (ext == ".pcd" || ext == ".PCD") {
+    out = read_pcd(path, dropped, viewpoints);
+  } else if (ext == ".ply" || ext == ".PLY") {
+    out = read_ply(path, dropped, viewpoints);
   } else {
-    pcl::PointCloud<pcl::PointXYZ> cloud;
-    pcl::fromPCLPointCloud2(blob, cloud);
-    out.reserve(cloud.size());
-    for (const auto& p : cloud) {
-      const Vec3 x(p.x, p.y, p.z);
-      if (finite(x)) {
-        out.push_back(x);
-      } else {
-        ++dropped;
-      }
-    }
+    if (!std::filesystem::is_regular_file(path)) throw input_error(path, "no such file");
+    throw input_error(path, "unknown cloud format '" + ext + "' (expected .pcd or .ply)");
   }
   if (dropped_non_finite) *dropped_non_finite = dropped;
   return out;

@@ -1,4 +1,5 @@
-// Point cloud files through PCL (PCD ascii/binary, PLY). PCL's headers stay inside cloud_io.cpp.
+// Point cloud files: PCD (PCL's format: ascii, binary, binary_compressed) and PLY, read and written by weldtwin
+// itself (see cloud_io.cpp for why not through PCL's I/O module).
 #pragma once
 
 #include <string>
