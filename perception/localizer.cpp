@@ -16,6 +16,9 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 
+// PCL's templates are compiled here from its headers rather than linked from its precompiled libraries: the
+// segmentation library drags in the features library, whose loading cost every process ~0.05 s.
+#define PCL_NO_PRECOMPILE
 #include <pcl/console/print.h>
 #include <pcl/filters/voxel_grid.h>
 #include <pcl/point_types.h>
@@ -90,6 +93,24 @@ class PointTree {
   std::unique_ptr<Data> data_;  // the index refers to it: it must not move
   std::unique_ptr<Index> index_;
 };
+
+// Runs fn(0..n-1) on up to `threads` threads (0: all cores).
+template <typename Fn>
+void parallel_for(size_t n, int threads, Fn fn) {
+  const size_t workers = std::min<size_t>(
+      n, threads > 0 ? static_cast<size_t>(threads) : std::max(1u, std::thread::hardware_concurrency()));
+  if (workers <= 1) {
+    for (size_t i = 0; i < n; ++i) fn(i);
+    return;
+  }
+  std::atomic<size_t> next{0};
+  std::vector<std::thread> pool;
+  for (size_t w = 0; w < workers; ++w)
+    pool.emplace_back([&] {
+      for (size_t i; (i = next++) < n;) fn(i);
+    });
+  for (auto& t : pool) t.join();
+}
 
 // ---------------------------------------------------------------------------------------------- the table
 
@@ -414,15 +435,21 @@ void build_model(const Mesh& mesh, double min_z, const LocalizeSetting& s, Model
   model.half_thickness.resize(n);
   model.lo = Vec3::Constant(1e9);
   model.hi = Vec3::Constant(-1e9);
+  constexpr size_t kChunk = 512;
+  parallel_for((n + kChunk - 1) / kChunk, s.threads, [&](size_t chunk) {
+    for (size_t k = chunk * kChunk; k < std::min(n, (chunk + 1) * kChunk); ++k) {
+      const Vec3& p = model.pts[k];
+      const Vec3& nn = model.nrm[k];
+      model.view_score[k] = static_cast<uint8_t>(view_directions(rays, p, nn));
+      model.visible[k] = model.view_score[k] > 0;
+      // Half the distance to the next surface behind the face or facing it: a residual beyond that may
+      // belong to the other surface, so trimming there keeps thin walls unbiased.
+      const double behind = rays.hit(p, -nn, 1e-5, 0.05), front = rays.hit(p, nn, 1e-5, 0.05);
+      model.half_thickness[k] = static_cast<float>(0.5 * std::min({behind, front, 0.1}));
+    }
+  });
   for (size_t k = 0; k < n; ++k) {
     const Vec3& p = model.pts[k];
-    const Vec3& nn = model.nrm[k];
-    model.view_score[k] = static_cast<uint8_t>(view_directions(rays, p, nn));
-    model.visible[k] = model.view_score[k] > 0;
-    // Half the distance to the next surface behind the face or facing it: a residual beyond that may belong
-    // to the other surface, so trimming there keeps thin walls unbiased.
-    const double behind = rays.hit(p, -nn, 1e-5, 0.05), front = rays.hit(p, nn, 1e-5, 0.05);
-    model.half_thickness[k] = static_cast<float>(0.5 * std::min({behind, front, 0.1}));
     model.lo = model.lo.cwiseMin(p);
     model.hi = model.hi.cwiseMax(p);
     model.radius = std::max(model.radius, p.head<2>().norm());
@@ -435,10 +462,12 @@ void build_model(const Mesh& mesh, double min_z, const LocalizeSetting& s, Model
   const std::vector<Vec3> edge_pts = feature_edge_points(rest, 0.0);
   if (!edge_pts.empty()) {
     const PointTree edge_tree(edge_pts);
-    double d2 = 0.0;
-    for (size_t k = 0; k < n; ++k)
-      if (edge_tree.nearest(model.pts[k], d2) >= 0)
-        model.edge_distance[k] = static_cast<float>(std::sqrt(d2));
+    parallel_for((n + kChunk - 1) / kChunk, s.threads, [&](size_t chunk) {
+      double d2 = 0.0;
+      for (size_t k = chunk * kChunk; k < std::min(n, (chunk + 1) * kChunk); ++k)
+        if (edge_tree.nearest(model.pts[k], d2) >= 0)
+          model.edge_distance[k] = static_cast<float>(std::sqrt(d2));
+    });
   }
 
   // Wall samples by height for the Hough vote.
@@ -825,24 +854,6 @@ bool same_seams(const std::vector<Vec3>& seam, const Iso3& D) {
     if (best > 1.5e-3 * 1.5e-3) return false;
   }
   return true;
-}
-
-// Runs fn(0..n-1) on up to `threads` threads (0: all cores).
-template <typename Fn>
-void parallel_for(size_t n, int threads, Fn fn) {
-  const size_t workers = std::min<size_t>(
-      n, threads > 0 ? static_cast<size_t>(threads) : std::max(1u, std::thread::hardware_concurrency()));
-  if (workers <= 1) {
-    for (size_t i = 0; i < n; ++i) fn(i);
-    return;
-  }
-  std::atomic<size_t> next{0};
-  std::vector<std::thread> pool;
-  for (size_t w = 0; w < workers; ++w)
-    pool.emplace_back([&] {
-      for (size_t i; (i = next++) < n;) fn(i);
-    });
-  for (auto& t : pool) t.join();
 }
 
 template <typename T>
