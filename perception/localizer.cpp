@@ -360,6 +360,7 @@ struct Model {
 };
 
 constexpr double kHeightBin = 0.002;
+constexpr double kMinViewpointHeight = 0.05;  // a LiDAR scanning the table looks from above it
 constexpr double kRayWindow = 0.02;  // a ray meeting the model this much before or beyond its range meets
                                      // something else
 
@@ -915,7 +916,15 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   // With the sensor's position for every point, the fine refinement casts the rays themselves against the
   // model (a voxel's centroid would mix the two sides of a thin wall, and a point's own position, thrown by
   // the noise, cannot say which side it is on).
-  const bool rays = viewpoints_base.size() == scan_base.size();
+  // Viewpoints that cannot be a LiDAR looking down at the table (all zero, as some tools fill PCL's
+  // PointWithViewpoint) are not used: a ray cast from the wrong place would match points with wrong faces.
+  bool rays = viewpoints_base.size() == scan_base.size() && !scan_base.empty();
+  if (rays) {
+    size_t above_table = 0, looked = 0;
+    for (size_t i = 0; i < viewpoints_base.size(); i += 97, ++looked)
+      above_table += (T_table_base * viewpoints_base[i]).z() > kMinViewpointHeight;
+    rays = above_table >= 0.9 * static_cast<double>(looked);
+  }
   std::vector<uint32_t> ray_points;  // every point near or above the table, when the rays are known
   for (size_t i = 0; i < scan_base.size(); ++i) {
     const Vec3& p = scan_base[i];

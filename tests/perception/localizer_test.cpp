@@ -243,6 +243,14 @@ TEST(Localizer, RaysCastFromTheirViewpointsFindTheSquareTubeWhereItsPointsAloneD
     EXPECT_LT(e.seam_max_m, kSeamBar) << seed;
     EXPECT_LT(rad2deg(e.rotation_rad), kRotationBar) << seed;
     EXPECT_LT(2 * e.rotation_rad, e0.rotation_rad) << seed;
+    EXPECT_TRUE(with.rays_cast);
+    EXPECT_FALSE(without.rays_cast);
+    if (seed != 23) continue;
+    // Viewpoints that cannot be a LiDAR over the table (all zero, as some tools write them) are not used.
+    const PoseEstimate zero = localize(scan.cloud, mesh, LocalizeSetting(), seams,
+                                       std::vector<Vec3>(scan.cloud.size(), Vec3::Zero()));
+    EXPECT_FALSE(zero.rays_cast);
+    EXPECT_TRUE(zero.T_base_part.isApprox(without.T_base_part, 1e-12));
   }
 }
 
