@@ -1,5 +1,5 @@
-// Point cloud files: PCD (PCL's format: ascii, binary, binary_compressed) and PLY, read and written by weldtwin
-// itself (see cloud_io.cpp for why not through PCL's I/O module).
+// Point cloud files: PCD (PCL's format: ascii, binary, binary_compressed) and PLY, read and written by
+// weldtwin itself (see cloud_io.cpp for why not through PCL's I/O module).
 #pragma once
 
 #include <string>
