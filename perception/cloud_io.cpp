@@ -14,6 +14,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -170,6 +171,15 @@ std::vector<Vec3> read_pcd(const std::string& path, size_t& dropped, std::vector
   }
   if (L.want[0] < 0 || L.want[1] < 0 || L.want[2] < 0)
     throw input_error(path, "the cloud has no x, y, z fields");
+  // A header may claim more points than the file can hold (or a count that overflows): refuse before
+  // reserving or reading anything.
+  const size_t body_bytes = data.size() - pos;
+  const size_t least = format == "ascii" ? 2 : format == "binary" ? std::max<size_t>(1, L.record) : 0;
+  if ((least > 0 && points > body_bytes / least) ||
+      (format == "binary_compressed" &&
+       points > std::numeric_limits<uint32_t>::max() / std::max<size_t>(1, L.record)))
+    throw input_error(path, "truncated point cloud: the header claims " + std::to_string(points) +
+                                " points, the file holds fewer");
   const bool with_vp = viewpoints && L.has_viewpoints();
   std::vector<Vec3> out;
   out.reserve(points);

@@ -164,6 +164,15 @@ TEST(CloudIo, TruncatedFilesAreRefusedNamingTheFile) {
   std::ofstream((dir / "nofields.pcd").string()) << "VERSION 0.7\nFIELDS a b\nSIZE 4 4\nTYPE F F\nCOUNT 1 1\n"
                                                     "WIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2\n";
   EXPECT_THROW(read_cloud((dir / "nofields.pcd").string()), InputError);
+  // A header claiming far more points than the file holds (or a count that wraps): refused, nothing reserved.
+  for (const char* claim : {"POINTS 1000000000000", "POINTS -5"})
+    for (const char* data : {"ascii", "binary", "binary_compressed"}) {
+      const std::string file = (dir / "claims.pcd").string();
+      std::ofstream(file)
+          << "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1\nHEIGHT 1\n"
+          << claim << "\nDATA " << data << "\n0123456789abcdef0123";
+      EXPECT_THROW(read_cloud(file), InputError) << claim << " " << data;
+    }
 }
 
 }  // namespace
