@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <memory>
+
+#include <nanoflann.hpp>
 
 // PCL's templates are compiled here from its headers rather than linked from its precompiled libraries: the
 // segmentation library drags in the features library, whose loading cost every process ~0.05 s.
@@ -25,6 +28,71 @@ namespace weldtwin {
 namespace {
 
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+
+// PCL's search interface answered by nanoflann: the same neighbours as PCL's FLANN tree (which opens an
+// OpenMP region and allocates for every single query) at about a quarter of the time. The paper's algorithms
+// are PCL's own — statistical outlier removal, Euclidean clusters, ICP — only the tree under them is swapped
+// (`weldtwin_bench --benchmark_filter=PaperSearch` compares the two).
+class NanoflannSearch : public pcl::search::KdTree<pcl::PointXYZ> {
+ public:
+  using Ptr = std::shared_ptr<NanoflannSearch>;
+  NanoflannSearch() : pcl::search::KdTree<pcl::PointXYZ>(true) {}
+
+  void setInputCloud(const PointCloudConstPtr& cloud, const pcl::IndicesConstPtr& indices = {}) override {
+    input_ = cloud;
+    indices_ = indices;
+    data_.cloud = cloud.get();
+    data_.indices = indices.get();
+    index_ = std::make_unique<Index>(3, data_, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+    index_->buildIndex();
+  }
+
+  int nearestKSearch(const pcl::PointXYZ& p, int k, pcl::Indices& idx,
+                     std::vector<float>& d2) const override {
+    const size_t want = static_cast<size_t>(std::max(k, 0));
+    std::vector<uint32_t> found(want);
+    d2.resize(want);
+    const size_t n =
+        data_.kdtree_get_point_count() == 0 ? 0 : index_->knnSearch(p.data, want, found.data(), d2.data());
+    idx.resize(n);
+    d2.resize(n);
+    for (size_t i = 0; i < n; ++i) idx[i] = data_.original(found[i]);
+    return static_cast<int>(n);
+  }
+
+  int radiusSearch(const pcl::PointXYZ& p, double radius, pcl::Indices& idx, std::vector<float>& d2,
+                   unsigned int max_nn = 0) const override {
+    std::vector<std::pair<uint32_t, float>> found;
+    if (data_.kdtree_get_point_count() > 0)
+      index_->radiusSearch(p.data, static_cast<float>(radius * radius), found,
+                           nanoflann::SearchParams(32, 0.0f, sorted_results_ || max_nn > 0));
+    if (max_nn > 0 && found.size() > max_nn) found.resize(max_nn);
+    idx.resize(found.size());
+    d2.resize(found.size());
+    for (size_t i = 0; i < found.size(); ++i)
+      idx[i] = data_.original(found[i].first), d2[i] = found[i].second;
+    return static_cast<int>(found.size());
+  }
+
+ private:
+  struct Data {
+    const Cloud* cloud = nullptr;
+    const pcl::Indices* indices = nullptr;  // null: every point
+    size_t kdtree_get_point_count() const { return indices ? indices->size() : cloud ? cloud->size() : 0; }
+    int original(uint32_t i) const { return indices ? (*indices)[i] : static_cast<int>(i); }
+    float kdtree_get_pt(size_t i, size_t d) const {
+      return (*cloud)[static_cast<size_t>(original(static_cast<uint32_t>(i)))].data[d];
+    }
+    template <class Box>
+    bool kdtree_get_bbox(Box&) const {
+      return false;
+    }
+  };
+  using Index =
+      nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Data>, Data, 3, uint32_t>;
+  Data data_;
+  std::unique_ptr<Index> index_;
+};
 
 Cloud::Ptr without(const Cloud::Ptr& in, const pcl::PointIndices& drop) {
   std::vector<char> gone(in->size(), 0);
@@ -101,8 +169,7 @@ PoseEstimate localize_paper(const std::vector<Vec3>& scan_base, const Mesh& mesh
     objects = without(objects, in);
   }
   // Clusters: the one whose size is closest to the model's.
-  pcl::search::KdTree<pcl::PointXYZ>::Ptr tree(new pcl::search::KdTree<pcl::PointXYZ>);
-  tree->setInputCloud(objects);
+  const auto tree = std::make_shared<NanoflannSearch>();
   std::vector<pcl::PointIndices> clusters;
   pcl::EuclideanClusterExtraction<pcl::PointXYZ> ec;
   ec.setClusterTolerance(s.cluster_tolerance_m);
@@ -139,6 +206,7 @@ PoseEstimate localize_paper(const std::vector<Vec3>& scan_base, const Mesh& mesh
   guess.block<3, 1>(0, 3) = (c_scan - c_model).head<3>();
   pcl::IterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> icp;
   icp.setInputSource(source);
+  icp.setSearchMethodTarget(std::make_shared<NanoflannSearch>());
   icp.setInputTarget(target);
   icp.setMaximumIterations(s.icp_iterations);
   icp.setMaxCorrespondenceDistance(s.icp_max_distance_m);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 
 namespace weldtwin {
@@ -43,15 +44,41 @@ AssembledCloud assemble_scan(const ScanLog& log, const RobotModel& robot, const 
   cloud.points_base.reserve(log.samples.size());
   cloud.sample_index.reserve(log.samples.size());
   cloud.viewpoints_base.reserve(log.samples.size());
+  auto exact = [&](size_t i, Iso3& T) {
+    JointVector q;
+    if (!interpolate_joints(log.joints, log.samples[i].t_s, q)) return false;
+    T = robot.forward_kinematics(q, lidar);
+    return true;
+  };
+  // The sensor's pose exactly at every knot_samples-th sample, interpolated linearly in between when the two
+  // knots are close in time (over a few milliseconds the arm's motion is a straight line to far under a
+  // micrometre); exactly at the sample otherwise.
+  const size_t step = static_cast<size_t>(std::max(1, setting.knot_samples));
+  size_t knot_a = SIZE_MAX;
+  bool knots = false;
+  Iso3 Ta = Iso3::Identity(), Tb = Iso3::Identity();
+  double ta = 0.0, tb = 0.0;
   for (size_t i = 0; i < log.samples.size(); ++i) {
     const LidarSample& s = log.samples[i];
     if (!usable(s, setting)) continue;
-    JointVector q;
-    if (!interpolate_joints(log.joints, s.t_s, q)) {
+    if (step > 1 && i / step * step != knot_a) {
+      const size_t a = i / step * step, b = a + step;  // past the last knot: every sample exactly
+      const bool reuse = knots && a == knot_a + step;  // the last segment's end is this one's start
+      if (reuse) Ta = Tb;
+      knot_a = a;
+      ta = log.samples[a].t_s;
+      tb = b < log.samples.size() ? log.samples[b].t_s : ta;
+      knots = tb > ta && tb - ta <= setting.max_knot_gap_s && (reuse || exact(a, Ta)) && exact(b, Tb);
+    }
+    Iso3 T = Ta;
+    if (knots && s.t_s >= ta && s.t_s <= tb) {
+      const double u = (s.t_s - ta) / (tb - ta);
+      T.translation() = (1.0 - u) * Ta.translation() + u * Tb.translation();
+      T.linear() = (1.0 - u) * Ta.linear() + u * Tb.linear();
+    } else if (!exact(i, T)) {
       ++cloud.dropped_outside_joint_log;
       continue;
     }
-    const Iso3 T = robot.forward_kinematics(q, lidar);
     cloud.points_base.push_back(sample_point(T, s));
     cloud.viewpoints_base.push_back(T.translation());
     cloud.sample_index.push_back(static_cast<uint32_t>(i));

@@ -12,7 +12,10 @@
 namespace weldtwin {
 
 struct AssemblySetting {
-  uint8_t min_quality = 1;  ///< samples below this quality are dropped (0 = no return)
+  uint8_t min_quality = 1;       ///< samples below this quality are dropped (0 = no return)
+  int knot_samples = 8;          ///< the sensor pose is computed (joint log, FK) exactly at every this many
+                                 ///< samples and interpolated between (1: at every sample)
+  double max_knot_gap_s = 0.01;  ///< knots farther apart in time: every sample between is posed exactly
 };
 
 struct AssembledCloud {

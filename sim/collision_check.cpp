@@ -62,7 +62,8 @@ struct Chunk {
   int geom = 0;
   Vec3 center = Vec3::Zero();  ///< geom frame
   double radius = 0.0;
-  std::vector<Vec3> points;  ///< geom frame
+  std::vector<Vec3> points;    ///< geom frame
+  std::vector<double> offset;  ///< each point's distance from the centre
 };
 
 std::vector<Chunk> make_chunks(const mjModel* m, int geom, double spacing, double chunk_m) {
@@ -79,7 +80,8 @@ std::vector<Chunk> make_chunks(const mjModel* m, int geom, double spacing, doubl
     c.geom = geom;
     for (const Vec3& p : c.points) c.center += p;
     c.center /= static_cast<double>(c.points.size());
-    for (const Vec3& p : c.points) c.radius = std::max(c.radius, (p - c.center).norm());
+    for (const Vec3& p : c.points) c.offset.push_back((p - c.center).norm());
+    c.radius = *std::max_element(c.offset.begin(), c.offset.end());
     chunks.push_back(std::move(c));
   }
   return chunks;
@@ -138,11 +140,28 @@ PartClearance::PartClearance(const MujocoWorld& world, const Mesh& part_mesh, co
     }
 }
 
-double PartClearance::clearance(const mjData* d, std::string* geom) const {
+double PartClearance::clearance(const mjData* d, std::string* geom, Hint* hint) const {
   const MeshRays& rays = *impl_->rays;
   double best = impl_->range;
   int best_geom = -1;
   Vec3 best_point = Vec3::Zero();
+  size_t best_chunk = 0, best_index = 0;
+  auto consider = [&](size_t chunk, size_t i, const Vec3& pb) {
+    const double dp = rays.distance(pb, best);
+    if (dp < best) {
+      best = dp;
+      best_geom = impl_->chunks[chunk].geom;
+      best_point = pb;
+      best_chunk = chunk, best_index = i;
+    }
+  };
+  // The nearest point of the last state first: the search then starts with a tight bound.
+  if (hint && hint->chunk >= 0 && static_cast<size_t>(hint->chunk) < impl_->chunks.size()) {
+    const Chunk& c = impl_->chunks[static_cast<size_t>(hint->chunk)];
+    if (static_cast<size_t>(hint->point) < c.points.size())
+      consider(static_cast<size_t>(hint->chunk), static_cast<size_t>(hint->point),
+               geom_to_base(d, c.geom, c.points[static_cast<size_t>(hint->point)]));
+  }
   for (const Impl::GeomChunks& g : impl_->geoms) {
     const double dg = rays.distance(geom_to_base(d, g.geom, Vec3::Zero()), best + g.radius);
     if (!std::isfinite(dg) || dg - g.radius >= best) continue;
@@ -150,17 +169,12 @@ double PartClearance::clearance(const mjData* d, std::string* geom) const {
       const Chunk& c = impl_->chunks[k];
       const double dc = rays.distance(geom_to_base(d, c.geom, c.center), best + c.radius);
       if (!std::isfinite(dc) || dc - c.radius >= best) continue;
-      for (const Vec3& p : c.points) {
-        const Vec3 pb = geom_to_base(d, c.geom, p);
-        const double dp = rays.distance(pb, best);
-        if (dp < best) {
-          best = dp;
-          best_geom = c.geom;
-          best_point = pb;
-        }
-      }
+      for (size_t i = 0; i < c.points.size(); ++i)
+        if (dc - c.offset[i] < best) consider(k, i, geom_to_base(d, c.geom, c.points[i]));  // else too far
     }
   }
+  if (hint)
+    *hint = best_geom >= 0 ? Hint{static_cast<int>(best_chunk), static_cast<int>(best_index)} : Hint{};
   if (best_geom >= 0 && best < 0.005 && rays.inside(best_point)) best = -best;
   if (geom) *geom = best_geom >= 0 ? geom_name(impl_->world->model(), best_geom) : "";
   return best;

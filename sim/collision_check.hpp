@@ -18,7 +18,12 @@ class PartClearance {
   PartClearance(const MujocoWorld& world, const Mesh& part_mesh, const Iso3& T_base_part, double range_m);
   /// The smallest distance [m] from a robot surface to the part at the state `d` (after kinematics), negative
   /// when inside, `range_m` when nothing is nearer; `geom` names the nearest robot geom ("" if none).
-  double clearance(const mjData* d, std::string* geom = nullptr) const;
+  /// `hint`: where the nearest point was found last (in and out), for a sequence of nearby states — the
+  /// search starts there with a tight bound. The answer is the same with or without it.
+  struct Hint {
+    int chunk = -1, point = -1;
+  };
+  double clearance(const mjData* d, std::string* geom = nullptr, Hint* hint = nullptr) const;
 
  private:
   struct Impl;

@@ -212,11 +212,14 @@ ReplayResult replay_plan(const MujocoWorld& world, const RobotModel& robot, cons
   std::atomic<size_t> next_sample{0};
   auto clearance_worker = [&] {
     DataPtr dk(mj_makeData(m));
-    for (size_t k; (k = next_sample.fetch_add(1)) < out.samples.size();) {
-      ReplaySample& r = out.samples[k];
-      world.set_joints(dk.get(), r.q);
-      r.clearance_m = clearance.clearance(dk.get(), &r.clearance_geom);
-    }
+    PartClearance::Hint hint;  // runs of consecutive samples: the nearest point moves little between them
+    constexpr size_t kRun = 64;
+    for (size_t first; (first = next_sample.fetch_add(kRun)) < out.samples.size();)
+      for (size_t k = first; k < std::min(first + kRun, out.samples.size()); ++k) {
+        ReplaySample& r = out.samples[k];
+        world.set_joints(dk.get(), r.q);
+        r.clearance_m = clearance.clearance(dk.get(), &r.clearance_geom, &hint);
+      }
   };
   const unsigned threads = setting.threads > 0
                                ? static_cast<unsigned>(setting.threads)

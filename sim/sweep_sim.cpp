@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <thread>
 
 #include "sim/body_chain.hpp"
@@ -45,6 +46,14 @@ void run_turns(const TurnWork& w, std::atomic<size_t>& next, std::atomic<size_t>
   for (size_t turn = next.fetch_add(1); turn < turns; turn = next.fetch_add(1)) {
     const LidarTurn& lt = w.out.log.turns[turn];
     LidarErrorModel errors(w.lidar, turn);
+    // The sensor is posed exactly at every `sensor_knot_samples`-th sample and interpolated linearly in
+    // between: over a few milliseconds the arm's motion is a straight line to far under a micrometre.
+    const size_t knot_step = static_cast<size_t>(std::max(1, w.options.sensor_knot_samples));
+    auto exact_pose = [&](size_t sample) {
+      return w.chain.pose(w.program.q(static_cast<double>(sample) / w.lidar.sample_rate_hz), chain_cache);
+    };
+    size_t knot_a = SIZE_MAX;
+    Iso3 Ta = Iso3::Identity(), Tb = Iso3::Identity();
     for (uint32_t k = 0; k < lt.count; ++k) {
       const size_t i = lt.first + k;
       LidarSample& s = w.out.log.samples[i];
@@ -68,10 +77,23 @@ void run_turns(const TurnWork& w, std::atomic<size_t>& next, std::atomic<size_t>
         }
         current_slice = slice;
       }
-      const Iso3 T = w.chain.pose(w.program.q(s.t_s), chain_cache);
+      const size_t a = i / knot_step * knot_step;
+      if (a != knot_a && a + knot_step < w.out.log.samples.size()) {
+        Ta = knot_a != SIZE_MAX && a == knot_a + knot_step ? Tb : exact_pose(a);  // the last end is this start
+        Tb = exact_pose(a + knot_step);
+        knot_a = a;
+      }
+      Iso3 T = Ta;
+      if (a + knot_step >= w.out.log.samples.size()) {
+        T = exact_pose(i);  // the last samples, past the last knot
+      } else if (i > a) {
+        const double u = static_cast<double>(i - a) / static_cast<double>(knot_step);
+        T.translation() = (1.0 - u) * Ta.translation() + u * Tb.translation();
+        T.linear() = (1.0 - u) * Ta.linear() + u * Tb.linear();
+      }
       if (w.options.record_sensor_poses) w.out.T_base_lidar[i] = T;
       // The ray leaves the scan centre in the scan plane, counter-clockwise about +z from +x.
-      const Vec3 dir = T.linear() * beam[k];
+      const Vec3 dir = (T.linear() * beam[k]).normalized();
       const RayHit hit = view.cast(T.translation(), dir, 1e-6, w.lidar.max_range_m * 1.05);
       exact[k] = hit.hit() ? hit.distance_m : 0.0;
       double r = 0.0;

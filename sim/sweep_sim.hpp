@@ -22,6 +22,8 @@ struct SweepOptions {
   int threads = 0;                   ///< 0: all cores
   bool record_sensor_poses = false;  ///< keep T_base_lidar of every sample (memory: 56 bytes a sample)
   bool cull_by_scan_plane = true;    ///< skip arm shapes the slice's scan planes cannot meet (same result)
+  int sensor_knot_samples = 8;       ///< the sensor is posed exactly every this many samples, interpolated
+                                     ///< linearly between (1: at every sample; 8 is 1 ms at 8 kHz)
   std::string lidar_link = "lidar";
   std::function<void(double done_fraction)> progress;  ///< called now and then from the calling thread
 };
@@ -35,7 +37,7 @@ struct SweepResult {
 };
 
 /// Runs the sweep. The geometry a sample sees is posed at the start of the sample's slice
-/// (SweepOptions::slice_s); the sensor itself is posed exactly at the sample time.
+/// (SweepOptions::slice_s); the sensor itself at the sample's time (SweepOptions::sensor_knot_samples).
 SweepResult simulate_sweep(const MujocoWorld& world, const RobotModel& robot, const SweepProgram& program,
                            const LidarSetting& lidar, const SweepOptions& options = {});
 

@@ -70,6 +70,38 @@ TEST(ScanAssembly, JointsLoggedAt200HzStayWithinTheInterpolationBound) {
   EXPECT_GT(worst, 1e-9);  // the effect is real, not zero by accident
 }
 
+TEST(ScanAssembly, PosesAtKnotsInterpolatedGiveTheCloudOfPosesAtEverySampleWithin1um) {
+  test::Cell cell;
+  const SweepProgram program = SweepProgram::load(cell.spec.sweep_program, cell.robot);
+  const Assembled a = run(cell, program, 200.0);
+  AssemblySetting every;
+  every.knot_samples = 1;
+  const AssembledCloud exact = assemble_scan(a.sweep.log, cell.robot, every);
+  ASSERT_EQ(exact.points_base.size(), a.by_fk.points_base.size());
+  double worst = 0.0, worst_view = 0.0;
+  for (size_t i = 0; i < exact.points_base.size(); ++i) {
+    ASSERT_EQ(exact.sample_index[i], a.by_fk.sample_index[i]);
+    worst = std::max(worst, (exact.points_base[i] - a.by_fk.points_base[i]).norm());
+    worst_view = std::max(worst_view, (exact.viewpoints_base[i] - a.by_fk.viewpoints_base[i]).norm());
+  }
+  std::printf("knots every 8 samples: worst difference %.2e m (sensor %.2e m)\n", worst, worst_view);
+  EXPECT_LT(worst, 1e-6);
+  EXPECT_GT(worst_view, 0.0);  // interpolated, not posed exactly
+  EXPECT_LT(worst_view, 1e-6);
+
+  // A gap in the log (samples lost for 50 ms): the knots around it are too far apart, every sample there is
+  // posed exactly — the same points as without knots.
+  ScanLog gap = a.sweep.log;
+  for (size_t i = 4000; i < gap.samples.size(); ++i) gap.samples[i].t_s += 0.05;
+  for (JointState& j : gap.joints)
+    if (j.t_s > gap.samples[3999].t_s) j.t_s += 0.05;
+  const AssembledCloud gap_knots = assemble_scan(gap, cell.robot),
+                       gap_exact = assemble_scan(gap, cell.robot, every);
+  ASSERT_EQ(gap_knots.points_base.size(), gap_exact.points_base.size());
+  for (size_t i = 0; i < gap_knots.points_base.size(); ++i)
+    ASSERT_LT((gap_knots.points_base[i] - gap_exact.points_base[i]).norm(), 1e-6) << i;
+}
+
 TEST(ScanAssembly, InterpolationIsLinearAndRefusesToExtrapolate) {
   std::vector<JointState> joints = {{0.0, JointVector::Zero()}, {1.0, JointVector::Constant(2.0)}};
   JointVector q;

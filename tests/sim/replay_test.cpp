@@ -90,6 +90,30 @@ TEST(Replay, APlanAtTheTruePoseLandsOnTheSeamsWithoutContacts) {
   EXPECT_EQ(counted, arc);
 }
 
+TEST(PartClearance, StartingFromTheLastNearestPointChangesNoAnswer) {
+  const test::Cell cell;
+  const Mesh mesh = load_mesh(cell.part.mesh_path);
+  PlanSetting setting;
+  setting.collision = CollisionChecker(*cell.world);
+  const WeldPlan plan = plan_welds(cell.part, cell.layout.T_base_part, cell.robot, setting);
+  ASSERT_TRUE(plan.ok()) << plan.problems.front();
+  const PartClearance clearance(*cell.world, mesh, cell.layout.T_base_part, 0.05);
+  DataPtr d(mj_makeData(cell.world->model()));
+  PartClearance::Hint hint;
+  size_t near = 0;
+  for (size_t k = 0; k < plan.samples.size(); k += 3) {
+    cell.world->set_joints(d.get(), plan.samples[k].q);
+    std::string plain_geom, hinted_geom;
+    const double plain = clearance.clearance(d.get(), &plain_geom);
+    const double hinted = clearance.clearance(d.get(), &hinted_geom, &hint);
+    ASSERT_EQ(plain, hinted) << "sample " << k;
+    ASSERT_EQ(plain_geom, hinted_geom) << "sample " << k;
+    near += plain < 0.05;
+    if (k % 300 == 0) hint = PartClearance::Hint{};  // now and then from nothing again
+  }
+  EXPECT_GT(near, plan.samples.size() / 10);  // the torch near the part: the hint was in play
+}
+
 TEST(Replay, APlanFromAPoseTwoMillimetresOffMissesTheSeamsByThatMuch) {
   const test::Cell cell;
   const Mesh mesh = load_mesh(cell.part.mesh_path);

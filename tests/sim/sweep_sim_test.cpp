@@ -179,6 +179,37 @@ TEST(SweepSim, CullingArmShapesByScanPlaneChangesNothing) {
   EXPECT_GT(robot, 1000u);  // the arm is in view, so the culling had something to get wrong
 }
 
+TEST(SweepSim, SensorPosedAtKnotsAndInterpolatedIsWithinAMicrometreOfPosedAtEverySample) {
+  test::Cell cell;
+  const SweepProgram program = SweepProgram::load(cell.spec.sweep_program, cell.robot);
+  SweepOptions options;
+  options.max_duration_s = 24.0;  // a pass at full speed, its blends and a transition
+  options.record_sensor_poses = true;
+  const LidarSetting exact_ranges = LidarSetting().noise_free();
+  options.sensor_knot_samples = 1;
+  const SweepResult every = simulate_sweep(*cell.world, cell.robot, program, exact_ranges, options);
+  options.sensor_knot_samples = 8;
+  const SweepResult knots = simulate_sweep(*cell.world, cell.robot, program, exact_ranges, options);
+  ASSERT_EQ(every.log.samples.size(), knots.log.samples.size());
+  double worst_m = 0.0, worst_rotation = 0.0, worst_between = 0.0;
+  size_t ranges = 0, same = 0;
+  for (size_t i = 0; i < every.T_base_lidar.size(); ++i) {
+    const Iso3 &a = every.T_base_lidar[i], &b = knots.T_base_lidar[i];
+    worst_m = std::max(worst_m, (a.translation() - b.translation()).norm());
+    worst_rotation = std::max(worst_rotation, (a.linear() - b.linear()).norm());
+    if (i % 8 != 0) worst_between = std::max(worst_between, (a.translation() - b.translation()).norm());
+    const float ra = every.log.samples[i].range_m, rb = knots.log.samples[i].range_m;
+    if (ra > 0 && rb > 0) ++ranges, same += std::abs(ra - rb) < 1e-6f * std::max(1.0f, ra);  // um a metre
+  }
+  std::printf("knots every 8 samples: sensor %.2e m, rotation %.2e; %zu of %zu ranges within 1 um a metre\n",
+              worst_m, worst_rotation, same, ranges);
+  EXPECT_LT(worst_m, 1e-6);
+  EXPECT_LT(worst_rotation, 1e-6);
+  EXPECT_GT(worst_between, 0.0);  // interpolated, not posed exactly: the comparison compares something
+  EXPECT_GT(ranges, 50000u);
+  EXPECT_GT(same, ranges * 999 / 1000);
+}
+
 TEST(SweepSim, RangeNoiseHasTheStatedSigmaAndSeedsReproduce) {
   test::Cell cell;
   const SweepProgram program = SweepProgram::load(cell.spec.sweep_program, cell.robot);
