@@ -1,0 +1,151 @@
+#include "perception/neighbour_grid.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <nanoflann.hpp>
+
+namespace weldtwin {
+namespace {
+
+struct Points {
+  const std::vector<Eigen::Vector3f>& pts;
+  size_t kdtree_get_point_count() const { return pts.size(); }
+  float kdtree_get_pt(size_t i, size_t d) const { return pts[i][static_cast<Eigen::Index>(d)]; }
+  template <class Box>
+  bool kdtree_get_bbox(Box&) const {
+    return false;
+  }
+};
+using Tree =
+    nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Points>, Points, 3, uint32_t>;
+
+}  // namespace
+
+std::vector<int> statistical_inliers(const std::vector<Eigen::Vector3f>& points, int mean_k,
+                                     double stddev_mul) {
+  std::vector<uint32_t> finite;
+  std::vector<Eigen::Vector3f> pts;
+  for (size_t i = 0; i < points.size(); ++i)
+    if (points[i].allFinite()) finite.push_back(static_cast<uint32_t>(i)), pts.push_back(points[i]);
+  std::vector<float> mean_distance(points.size(), 0.0f);
+  int valid = 0;
+  if (!pts.empty() && mean_k > 0) {
+    const Points data{pts};
+    const Tree tree(3, data, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+    const size_t want =
+        std::min(static_cast<size_t>(mean_k) + 1, pts.size());  // the first is the point itself
+    std::vector<uint32_t> idx(want);
+    std::vector<float> d2(want);
+    auto mean_of = [&](const float* nearest_first) {
+      double sum = 0.0;
+      for (size_t k = 1; k < want; ++k) sum += std::sqrt(nearest_first[k]);
+      return static_cast<float>(sum / mean_k);
+    };
+
+    // The cell: within it nine points in ten have their neighbours (from a thousand of them).
+    std::vector<float> kth;
+    for (size_t i = 0; i < pts.size(); i += std::max<size_t>(1, pts.size() / 1000)) {
+      tree.knnSearch(pts[i].data(), want, idx.data(), d2.data());
+      kth.push_back(std::sqrt(d2[want - 1]));
+    }
+    std::nth_element(kth.begin(), kth.begin() + static_cast<long>(kth.size() * 9 / 10), kth.end());
+    float cell = std::max(kth[kth.size() * 9 / 10], 1e-5f);
+    Eigen::Vector3f lo = pts.front(), hi = pts.front();
+    for (const Eigen::Vector3f& p : pts) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+    long n[3];
+    for (;;) {
+      for (int a = 0; a < 3; ++a) n[a] = static_cast<long>(std::floor((hi[a] - lo[a]) / cell)) + 1;
+      if (static_cast<double>(n[0]) * static_cast<double>(n[1]) * static_cast<double>(n[2]) <= 16e6) break;
+      cell *= 1.5f;
+    }
+    auto cell_index = [&](const Eigen::Vector3f& p, long c[3]) {
+      for (int a = 0; a < 3; ++a) c[a] = std::min(n[a] - 1, static_cast<long>((p[a] - lo[a]) / cell));
+      return static_cast<size_t>((c[2] * n[1] + c[1]) * n[0] + c[0]);
+    };
+    // Points sorted by cell (counting sort).
+    const size_t cells = static_cast<size_t>(n[0] * n[1] * n[2]);
+    std::vector<uint32_t> start(cells + 1, 0), of(pts.size());
+    long c[3];
+    for (size_t i = 0; i < pts.size(); ++i)
+      ++start[(of[i] = static_cast<uint32_t>(cell_index(pts[i], c))) + 1];
+    for (size_t k = 0; k < cells; ++k) start[k + 1] += start[k];
+    std::vector<uint32_t> order(pts.size()), fill(start.begin(), start.end() - 1);
+    for (size_t i = 0; i < pts.size(); ++i) order[fill[of[i]]++] = static_cast<uint32_t>(i);
+
+    std::vector<float> bx, by, bz, dist, near;
+    for (size_t o = 0; o < order.size();) {
+      // The points of this cell, and every point of the block of cells around it.
+      const size_t first = o, here = of[order[o]];
+      while (o < order.size() && of[order[o]] == here) ++o;
+      cell_index(pts[order[first]], c);
+      bx.clear(), by.clear(), bz.clear();
+      for (long z = std::max(0L, c[2] - 1); z <= std::min(n[2] - 1, c[2] + 1); ++z)
+        for (long y = std::max(0L, c[1] - 1); y <= std::min(n[1] - 1, c[1] + 1); ++y) {
+          const size_t row = static_cast<size_t>((z * n[1] + y) * n[0]);
+          for (uint32_t k = start[row + static_cast<size_t>(std::max(0L, c[0] - 1))],
+                        end = start[row + static_cast<size_t>(std::min(n[0] - 1, c[0] + 1)) + 1];
+               k < end; ++k) {
+            const Eigen::Vector3f& p = pts[order[k]];
+            bx.push_back(p.x()), by.push_back(p.y()), bz.push_back(p.z());
+          }
+        }
+      dist.resize(bx.size());
+      near.resize(bx.size());
+      float guess = std::numeric_limits<float>::infinity();  // squared: a little beyond the last k-th
+      for (size_t q = first; q < o; ++q) {
+        const Eigen::Vector3f& p = pts[order[q]];
+        // Everything nearer than the block's nearest face is in it (a side at the grid's edge has nothing
+        // beyond).
+        float reach = std::numeric_limits<float>::infinity();
+        for (int a = 0; a < 3; ++a) {
+          if (c[a] > 1) reach = std::min(reach, p[a] - (lo[a] + static_cast<float>(c[a] - 1) * cell));
+          if (c[a] + 2 < n[a]) reach = std::min(reach, lo[a] + static_cast<float>(c[a] + 2) * cell - p[a]);
+        }
+        for (size_t j = 0; j < bx.size(); ++j) {
+          const float ex = bx[j] - p.x(), ey = by[j] - p.y(), ez = bz[j] - p.z();
+          dist[j] = ex * ex + ey * ey + ez * ez;
+        }
+        // Neighbouring points have about the same k-th distance: select among the distances below a guess
+        // from the last one when there are enough of them, else among all.
+        float* d = dist.data();
+        size_t m = dist.size();
+        if (guess < std::numeric_limits<float>::infinity()) {
+          size_t below = 0;
+          for (size_t j = 0; j < dist.size(); ++j) {
+            near[below] = dist[j];
+            below += dist[j] <= guess;
+          }
+          if (below >= want) d = near.data(), m = below;
+        }
+        if (m >= want) {
+          std::nth_element(d, d + want - 1, d + m);
+          guess = 1.5f * d[want - 1];
+          if (reach >= 0.0f && d[want - 1] <= reach * reach) {
+            std::sort(d, d + want);
+            mean_distance[finite[order[q]]] = mean_of(d);
+            ++valid;
+            continue;
+          }
+        }
+        tree.knnSearch(p.data(), want, idx.data(), d2.data());  // the neighbours reach beyond the block
+        mean_distance[finite[order[q]]] = mean_of(d2.data());
+        ++valid;
+      }
+    }
+  }
+  // PCL's statistics and threshold.
+  double sum = 0.0, sq_sum = 0.0;
+  for (float d : mean_distance) sum += d, sq_sum += d * d;
+  const double mean = sum / valid;
+  const double stddev = std::sqrt((sq_sum - sum * sum / valid) / (valid - 1.0));
+  const double threshold = mean + stddev_mul * stddev;
+  std::vector<int> kept;
+  for (size_t i = 0; i < points.size(); ++i)
+    if (!(mean_distance[i] > threshold)) kept.push_back(static_cast<int>(i));
+  return kept;
+}
+
+}  // namespace weldtwin

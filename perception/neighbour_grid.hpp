@@ -1,0 +1,23 @@
+// PCL's statistical outlier removal with the neighbours found through a grid of cells: the paper's pipeline
+// runs it on every scan, and PCL's filter (a FLANN k-d tree query per point, k = 31) was the biggest single
+// cost of the randomized benchmark. Same steps and arithmetic as pcl::StatisticalOutlierRemoval; the same
+// points kept (neighbour_grid_test); `weldtwin_bench --benchmark_filter=OutlierFilter` compares the two.
+#pragma once
+
+#include <Eigen/Core>
+#include <vector>
+
+namespace weldtwin {
+
+/// A point whose mean distance to its `mean_k` nearest neighbours is more than `stddev_mul` standard
+/// deviations above the mean of those distances is an outlier. Non-finite points are kept, as PCL keeps them.
+/// Returns the indices of the points kept, in order.
+///
+/// The neighbours of all points of a cell are sought among the points of the 3 x 3 x 3 cells around it
+/// (gathered once for the cell); a point's k-th distance found there is the cloud's when it is nearer than
+/// the block's nearest face, otherwise a k-d tree answers. The cell is the distance within which nine in ten
+/// points have their neighbours.
+std::vector<int> statistical_inliers(const std::vector<Eigen::Vector3f>& points, int mean_k,
+                                     double stddev_mul);
+
+}  // namespace weldtwin
