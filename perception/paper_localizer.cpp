@@ -30,14 +30,14 @@ namespace {
 
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
 
-// PCL's search interface answered by nanoflann: the same neighbours as PCL's FLANN tree (which opens an
-// OpenMP region and allocates for every single query) at about a quarter of the time. The paper's algorithms
-// are PCL's own — statistical outlier removal, Euclidean clusters, ICP — only the tree under them is swapped
-// (`weldtwin_bench --benchmark_filter=PaperSearch` compares the two).
+// PCL's search interface answered by nanoflann, for the paper's Euclidean clusters and ICP (PCL's own
+// algorithms): the same neighbours as PCL's FLANN tree, which opens an OpenMP region and allocates for every
+// single query (`weldtwin_bench --benchmark_filter=Nearest`). Not for use from several threads at once.
 class NanoflannSearch : public pcl::search::KdTree<pcl::PointXYZ> {
  public:
   using Ptr = std::shared_ptr<NanoflannSearch>;
-  NanoflannSearch() : pcl::search::KdTree<pcl::PointXYZ>(true) {}
+  /// `sorted`: radius searches nearest first (Euclidean clusters do not need it).
+  explicit NanoflannSearch(bool sorted = true) : pcl::search::KdTree<pcl::PointXYZ>(sorted) {}
 
   void setInputCloud(const PointCloudConstPtr& cloud, const pcl::IndicesConstPtr& indices = {}) override {
     input_ = cloud;
@@ -51,7 +51,8 @@ class NanoflannSearch : public pcl::search::KdTree<pcl::PointXYZ> {
   int nearestKSearch(const pcl::PointXYZ& p, int k, pcl::Indices& idx,
                      std::vector<float>& d2) const override {
     const size_t want = static_cast<size_t>(std::max(k, 0));
-    std::vector<uint32_t> found(want);
+    std::vector<uint32_t>& found = knn_;
+    found.resize(want);
     d2.resize(want);
     const size_t n =
         data_.kdtree_get_point_count() == 0 ? 0 : index_->knnSearch(p.data, want, found.data(), d2.data());
@@ -63,7 +64,8 @@ class NanoflannSearch : public pcl::search::KdTree<pcl::PointXYZ> {
 
   int radiusSearch(const pcl::PointXYZ& p, double radius, pcl::Indices& idx, std::vector<float>& d2,
                    unsigned int max_nn = 0) const override {
-    std::vector<std::pair<uint32_t, float>> found;
+    std::vector<std::pair<uint32_t, float>>& found = radius_;
+    found.clear();
     if (data_.kdtree_get_point_count() > 0)
       index_->radiusSearch(p.data, static_cast<float>(radius * radius), found,
                            nanoflann::SearchParams(32, 0.0f, sorted_results_ || max_nn > 0));
@@ -93,6 +95,8 @@ class NanoflannSearch : public pcl::search::KdTree<pcl::PointXYZ> {
       nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Data>, Data, 3, uint32_t>;
   Data data_;
   std::unique_ptr<Index> index_;
+  mutable std::vector<uint32_t> knn_;  // answers in the making, kept for their memory
+  mutable std::vector<std::pair<uint32_t, float>> radius_;
 };
 
 Cloud::Ptr without(const Cloud::Ptr& in, const pcl::PointIndices& drop) {
@@ -171,7 +175,7 @@ PoseEstimate localize_paper(const std::vector<Vec3>& scan_base, const Mesh& mesh
     objects = without(objects, in);
   }
   // Clusters: the one whose size is closest to the model's.
-  const auto tree = std::make_shared<NanoflannSearch>();
+  const auto tree = std::make_shared<NanoflannSearch>(false);
   std::vector<pcl::PointIndices> clusters;
   pcl::EuclideanClusterExtraction<pcl::PointXYZ> ec;
   ec.setClusterTolerance(s.cluster_tolerance_m);

@@ -32,6 +32,7 @@ void run_turns(const TurnWork& w, std::atomic<size_t>& next, std::atomic<size_t>
   std::vector<Iso3> body_poses(w.body_chains.size());
   EmbreeScene::View view = w.scene.make_view();
   long current_slice = -1;
+  Iso3 slice_end = Iso3::Identity();  // the sensor at the end of the current slice
   const double dt = 1.0 / w.lidar.sample_rate_hz;
   const double step = 2.0 * kPi / w.samples_per_turn;
   std::vector<double> exact(static_cast<size_t>(w.samples_per_turn));
@@ -70,7 +71,10 @@ void run_turns(const TurnWork& w, std::atomic<size_t>& next, std::atomic<size_t>
         // All of the slice's rays lie in scan planes between those at its start and end.
         if (w.options.cull_by_scan_plane) {
           const double t0 = static_cast<double>(slice) * w.options.slice_s;
-          const Iso3 A = w.chain.pose(w.program.q(t0)), B = w.chain.pose(w.program.q(t0 + w.options.slice_s));
+          // The sensor at the slice's start: the last slice's end when they follow each other.
+          const Iso3 A = slice == current_slice + 1 ? slice_end : w.chain.pose(q_slice);
+          const Iso3 B = w.chain.pose(w.program.q(t0 + w.options.slice_s));
+          slice_end = B;
           const double tilt = Eigen::AngleAxisd(A.linear().transpose() * B.linear()).angle();
           view.restrict_to_plane(A.translation(), A.linear().col(2),
                                  (B.translation() - A.translation()).norm(), 1.5 * tilt);
@@ -79,7 +83,8 @@ void run_turns(const TurnWork& w, std::atomic<size_t>& next, std::atomic<size_t>
       }
       const size_t a = i / knot_step * knot_step;
       if (a != knot_a && a + knot_step < w.out.log.samples.size()) {
-        Ta = knot_a != SIZE_MAX && a == knot_a + knot_step ? Tb : exact_pose(a);  // the last end is this start
+        Ta =
+            knot_a != SIZE_MAX && a == knot_a + knot_step ? Tb : exact_pose(a);  // the last end is this start
         Tb = exact_pose(a + knot_step);
         knot_a = a;
       }
