@@ -115,6 +115,8 @@ struct PartClearance::Impl {
   };
   std::vector<GeomChunks> geoms;
   double range = 0.05;
+  Eigen::AlignedBox3d
+      box;  // the part's, base frame: a sphere this far from it is passed over without a query
 };
 
 PartClearance::PartClearance(const MujocoWorld& world, const Mesh& part_mesh, const Iso3& T_base_part,
@@ -124,6 +126,7 @@ PartClearance::PartClearance(const MujocoWorld& world, const Mesh& part_mesh, co
   for (Vec3& v : mesh_base.vertices) v = T_base_part * v;
   impl_->world = &world;
   impl_->rays = std::make_unique<MeshRays>(mesh_base);
+  for (const Vec3& v : mesh_base.vertices) impl_->box.extend(v);
   impl_->range = range_m;
   const mjModel* m = world.model();
   for (int g = 0; g < m->ngeom; ++g)
@@ -163,11 +166,15 @@ double PartClearance::clearance(const mjData* d, std::string* geom, Hint* hint) 
                geom_to_base(d, c.geom, c.points[static_cast<size_t>(hint->point)]));
   }
   for (const Impl::GeomChunks& g : impl_->geoms) {
-    const double dg = rays.distance(geom_to_base(d, g.geom, Vec3::Zero()), best + g.radius);
+    const Vec3 origin = geom_to_base(d, g.geom, Vec3::Zero());
+    if (impl_->box.exteriorDistance(origin) - g.radius >= best) continue;
+    const double dg = rays.distance(origin, best + g.radius);
     if (!std::isfinite(dg) || dg - g.radius >= best) continue;
     for (size_t k = g.first; k < g.end; ++k) {
       const Chunk& c = impl_->chunks[k];
-      const double dc = rays.distance(geom_to_base(d, c.geom, c.center), best + c.radius);
+      const Vec3 center = geom_to_base(d, c.geom, c.center);
+      if (impl_->box.exteriorDistance(center) - c.radius >= best) continue;
+      const double dc = rays.distance(center, best + c.radius);
       if (!std::isfinite(dc) || dc - c.radius >= best) continue;
       for (size_t i = 0; i < c.points.size(); ++i)
         if (dc - c.offset[i] < best) consider(k, i, geom_to_base(d, c.geom, c.points[i]));  // else too far
