@@ -33,7 +33,6 @@ void run_turns(const TurnWork& w, std::atomic<size_t>& next, std::atomic<size_t>
   EmbreeScene::View view = w.scene.make_view();
   long current_slice = -1;
   Iso3 slice_end = Iso3::Identity();  // the sensor at the end of the current slice
-  const double dt = 1.0 / w.lidar.sample_rate_hz;
   const double step = 2.0 * kPi / w.samples_per_turn;
   std::vector<double> exact(static_cast<size_t>(w.samples_per_turn));
   // Beam directions in the scan plane, one per sample slot of a turn.

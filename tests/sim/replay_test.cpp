@@ -63,12 +63,17 @@ TEST(Replay, DistanceToSeamMatchesADensePolylineEverywhere) {
   }
 }
 
+// The default cell's plan, made at the part's true pose.
+WeldPlan plan_at_true_pose(const test::Cell& cell) {
+  PlanSetting setting;
+  setting.collision = CollisionChecker(*cell.world);
+  return plan_welds(cell.part, cell.layout.T_base_part, cell.robot, setting);
+}
+
 TEST(Replay, APlanAtTheTruePoseLandsOnTheSeamsWithoutContacts) {
   const test::Cell cell;
   const Mesh mesh = load_mesh(cell.part.mesh_path);
-  PlanSetting setting;
-  setting.collision = CollisionChecker(*cell.world);
-  const WeldPlan plan = plan_welds(cell.part, cell.layout.T_base_part, cell.robot, setting);
+  const WeldPlan plan = plan_at_true_pose(cell);
   ASSERT_TRUE(plan.ok()) << plan.problems.front();
   const ReplayResult r = replay_plan(*cell.world, cell.robot, plan, cell.part, mesh, cell.layout.T_base_part);
   EXPECT_TRUE(r.passed()) << (r.failures.empty() ? "" : r.failures.front());
@@ -93,9 +98,7 @@ TEST(Replay, APlanAtTheTruePoseLandsOnTheSeamsWithoutContacts) {
 TEST(PartClearance, StartingFromTheLastNearestPointChangesNoAnswer) {
   const test::Cell cell;
   const Mesh mesh = load_mesh(cell.part.mesh_path);
-  PlanSetting setting;
-  setting.collision = CollisionChecker(*cell.world);
-  const WeldPlan plan = plan_welds(cell.part, cell.layout.T_base_part, cell.robot, setting);
+  const WeldPlan plan = plan_at_true_pose(cell);
   ASSERT_TRUE(plan.ok()) << plan.problems.front();
   const PartClearance clearance(*cell.world, mesh, cell.layout.T_base_part, 0.05);
   DataPtr d(mj_makeData(cell.world->model()));
