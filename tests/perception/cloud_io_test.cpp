@@ -60,7 +60,9 @@ TEST(CloudIo, ReadsWhatPclWritesPointForPoint) {
       const auto& p = cloud[i];
       EXPECT_EQ(pts[j].cast<float>(), Eigen::Vector3f(p.x, p.y, p.z)) << name << " " << i;
       EXPECT_EQ(vp[j].cast<float>(), Eigen::Vector3f(p.vp_x, p.vp_y, p.vp_z)) << name << " " << i;
-      if (mode != 0) EXPECT_EQ(pts[j], Vec3(p.x, p.y, p.z)) << name << " " << i;
+      if (mode != 0) {
+        EXPECT_EQ(pts[j], Vec3(p.x, p.y, p.z)) << name << " " << i;
+      }
       ++j;
     }
   }
