@@ -56,4 +56,13 @@ inline Iso3 orthonormalized(const Iso3& T) {
   return make_transform(T.translation(), R);
 }
 
+/// (1 - u) A + u B entry by entry: for poses a few milliseconds of motion apart, where it is the motion to
+/// far under a micrometre (the rotation is off SO(3) by the square of the angle between them).
+inline Iso3 lerp_pose(const Iso3& A, const Iso3& B, double u) {
+  Iso3 T = A;
+  T.translation() = (1.0 - u) * A.translation() + u * B.translation();
+  T.linear() = (1.0 - u) * A.linear() + u * B.linear();
+  return T;
+}
+
 }  // namespace weldtwin

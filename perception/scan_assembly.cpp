@@ -72,9 +72,7 @@ AssembledCloud assemble_scan(const ScanLog& log, const RobotModel& robot, const 
     }
     Iso3 T = Ta;
     if (knots && s.t_s >= ta && s.t_s <= tb) {
-      const double u = (s.t_s - ta) / (tb - ta);
-      T.translation() = (1.0 - u) * Ta.translation() + u * Tb.translation();
-      T.linear() = (1.0 - u) * Ta.linear() + u * Tb.linear();
+      T = lerp_pose(Ta, Tb, (s.t_s - ta) / (tb - ta));
     } else if (!exact(i, T)) {
       ++cloud.dropped_outside_joint_log;
       continue;

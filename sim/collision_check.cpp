@@ -115,8 +115,8 @@ struct PartClearance::Impl {
   };
   std::vector<GeomChunks> geoms;
   double range = 0.05;
-  Eigen::AlignedBox3d
-      box;  // the part's, base frame: a sphere this far from it is passed over without a query
+  // The part's box, base frame: a sphere farther from it than the nearest point found is passed over.
+  Eigen::AlignedBox3d box;
 };
 
 PartClearance::PartClearance(const MujocoWorld& world, const Mesh& part_mesh, const Iso3& T_base_part,

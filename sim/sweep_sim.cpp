@@ -91,9 +91,7 @@ void run_turns(const TurnWork& w, std::atomic<size_t>& next, std::atomic<size_t>
       if (a + knot_step >= w.out.log.samples.size()) {
         T = exact_pose(i);  // the last samples, past the last knot
       } else if (i > a) {
-        const double u = static_cast<double>(i - a) / static_cast<double>(knot_step);
-        T.translation() = (1.0 - u) * Ta.translation() + u * Tb.translation();
-        T.linear() = (1.0 - u) * Ta.linear() + u * Tb.linear();
+        T = lerp_pose(Ta, Tb, static_cast<double>(i - a) / static_cast<double>(knot_step));
       }
       if (w.options.record_sensor_poses) w.out.T_base_lidar[i] = T;
       // The ray leaves the scan centre in the scan plane, counter-clockwise about +z from +x.
