@@ -22,16 +22,57 @@ struct Points {
 using Tree =
     nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Points>, Points, 3, uint32_t>;
 
+// The `want` smallest of a[0, m) (m >= want >= 1): the largest of them and the sum of their square roots,
+// taken in double as PCL takes them. Quickselect with branch-free three-way partitions, the first about
+// `pivot`, each into the two buffers (of m floats) the current part does not occupy.
+struct Smallest {
+  float kth;
+  double root_sum;
+};
+Smallest smallest(float* a, size_t m, size_t want, float pivot, float* s1, float* s2) {
+  float* buf[3] = {a, s1, s2};
+  int cur = 0;
+  double sum = 0.0;
+  for (;;) {
+    const float* src = buf[cur];
+    float* below = buf[(cur + 1) % 3];
+    float* above = buf[(cur + 2) % 3];
+    size_t nb = 0, na = 0;
+    for (size_t j = 0; j < m; ++j) {
+      const float x = src[j];
+      below[nb] = x;
+      above[na] = x;
+      nb += x < pivot;
+      na += x > pivot;
+    }
+    const size_t equal = m - nb - na;
+    if (nb >= want) {
+      cur = (cur + 1) % 3, m = nb;
+    } else {
+      for (size_t j = 0; j < nb; ++j) sum += std::sqrt(static_cast<double>(below[j]));
+      if (nb + equal >= want) {
+        sum += static_cast<double>(want - nb) * std::sqrt(static_cast<double>(pivot));
+        return {pivot, sum};
+      }
+      sum += static_cast<double>(equal) * std::sqrt(static_cast<double>(pivot));
+      want -= nb + equal;
+      cur = (cur + 2) % 3, m = na;
+    }
+    // The median of three of the part left (m >= want >= 1 holds).
+    const float* p = buf[cur];
+    const float x = p[0], y = p[m / 2], z = p[m - 1];
+    pivot = std::max(std::min(x, y), std::min(std::max(x, y), z));
+  }
+}
+
 }  // namespace
 
-std::vector<int> statistical_inliers(const std::vector<Eigen::Vector3f>& points, int mean_k,
-                                     double stddev_mul) {
+std::vector<float> mean_neighbour_distances(const std::vector<Eigen::Vector3f>& points, int mean_k) {
   std::vector<uint32_t> finite;
   std::vector<Eigen::Vector3f> pts;
   for (size_t i = 0; i < points.size(); ++i)
     if (points[i].allFinite()) finite.push_back(static_cast<uint32_t>(i)), pts.push_back(points[i]);
   std::vector<float> mean_distance(points.size(), 0.0f);
-  int valid = 0;
   if (!pts.empty() && mean_k > 0) {
     const Points data{pts};
     const Tree tree(3, data, nanoflann::KDTreeSingleIndexAdaptorParams(10));
@@ -39,9 +80,9 @@ std::vector<int> statistical_inliers(const std::vector<Eigen::Vector3f>& points,
         std::min(static_cast<size_t>(mean_k) + 1, pts.size());  // the first is the point itself
     std::vector<uint32_t> idx(want);
     std::vector<float> d2(want);
-    auto mean_of = [&](const float* nearest_first) {
+    auto mean_of = [&](const float* nearest_first) {  // the first, the point itself, is left out as PCL does
       double sum = 0.0;
-      for (size_t k = 1; k < want; ++k) sum += std::sqrt(nearest_first[k]);
+      for (size_t k = 1; k < want; ++k) sum += std::sqrt(static_cast<double>(nearest_first[k]));
       return static_cast<float>(sum / mean_k);
     };
 
@@ -75,7 +116,7 @@ std::vector<int> statistical_inliers(const std::vector<Eigen::Vector3f>& points,
     std::vector<uint32_t> order(pts.size()), fill(start.begin(), start.end() - 1);
     for (size_t i = 0; i < pts.size(); ++i) order[fill[of[i]]++] = static_cast<uint32_t>(i);
 
-    std::vector<float> bx, by, bz, dist, near;
+    std::vector<float> bx, by, bz, dist, near, s1, s2;
     for (size_t o = 0; o < order.size();) {
       // The points of this cell, and every point of the block of cells around it.
       const size_t first = o, here = of[order[o]];
@@ -94,7 +135,9 @@ std::vector<int> statistical_inliers(const std::vector<Eigen::Vector3f>& points,
         }
       dist.resize(bx.size());
       near.resize(bx.size());
-      float guess = std::numeric_limits<float>::infinity();  // squared: a little beyond the last k-th
+      s1.resize(bx.size());
+      s2.resize(bx.size());
+      float last_kth = -1.0f;  // squared
       for (size_t q = first; q < o; ++q) {
         const Eigen::Vector3f& p = pts[order[q]];
         // Everything nearer than the block's nearest face is in it (a side at the grid's edge has nothing
@@ -109,10 +152,11 @@ std::vector<int> statistical_inliers(const std::vector<Eigen::Vector3f>& points,
           dist[j] = ex * ex + ey * ey + ez * ez;
         }
         // Neighbouring points have about the same k-th distance: select among the distances below a guess
-        // from the last one when there are enough of them, else among all.
+        // from the last one when there are enough of them, else among all; the last k-th the first pivot.
         float* d = dist.data();
         size_t m = dist.size();
-        if (guess < std::numeric_limits<float>::infinity()) {
+        if (last_kth >= 0.0f) {
+          const float guess = 1.5f * last_kth;
           size_t below = 0;
           for (size_t j = 0; j < dist.size(); ++j) {
             near[below] = dist[j];
@@ -121,21 +165,29 @@ std::vector<int> statistical_inliers(const std::vector<Eigen::Vector3f>& points,
           if (below >= want) d = near.data(), m = below;
         }
         if (m >= want) {
-          std::nth_element(d, d + want - 1, d + m);
-          guess = 1.5f * d[want - 1];
-          if (reach >= 0.0f && d[want - 1] <= reach * reach) {
-            std::sort(d, d + want);
-            mean_distance[finite[order[q]]] = mean_of(d);
-            ++valid;
+          // The point itself is among the `want` nearest at 0: their root sum is PCL's sum over the k others.
+          const Smallest sel =
+              smallest(d, m, want, last_kth >= 0.0f ? last_kth : d[m / 2], s1.data(), s2.data());
+          last_kth = sel.kth;
+          if (reach >= 0.0f && sel.kth <= reach * reach) {
+            mean_distance[finite[order[q]]] = static_cast<float>(sel.root_sum / mean_k);
             continue;
           }
         }
         tree.knnSearch(p.data(), want, idx.data(), d2.data());  // the neighbours reach beyond the block
         mean_distance[finite[order[q]]] = mean_of(d2.data());
-        ++valid;
       }
     }
   }
+  return mean_distance;
+}
+
+std::vector<int> statistical_inliers(const std::vector<Eigen::Vector3f>& points, int mean_k,
+                                     double stddev_mul) {
+  const std::vector<float> mean_distance = mean_neighbour_distances(points, mean_k);
+  int valid = 0;
+  if (mean_k > 0)
+    for (const Eigen::Vector3f& p : points) valid += p.allFinite();
   // PCL's statistics and threshold.
   double sum = 0.0, sq_sum = 0.0;
   for (float d : mean_distance) sum += d, sq_sum += d * d;

@@ -1,11 +1,12 @@
 // The grid's statistical outlier filter against PCL's own (pcl_filters, PCL's FLANN tree) on the same clouds:
-// the same points kept, and the filter does filter.
+// the same points kept, and the filter does filter; the mean distances against a brute-force search.
 #include "perception/neighbour_grid.hpp"
 
 #include <gtest/gtest.h>
 #include <pcl/filters/statistical_outlier_removal.h>
 #include <pcl/point_types.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -53,6 +54,41 @@ TEST(NeighbourGridTest, StatisticalInliersAreThePointsPclKeeps) {
       EXPECT_LT(lone, 90u);                   // most lone points go
       EXPECT_GT(plates, lone_from * 8 / 10);  // the plates stay
     }
+  }
+}
+
+// Each point's mean distance to its k nearest, by sorting its distances to all points and summing the square
+// roots of the k after itself in order, as PCL does. The grid sums them in another order: equal to the last
+// bit of the float but for a rare rounding tie.
+TEST(NeighbourGridTest, MeanDistancesAreTheBruteForceOnes) {
+  size_t lone_from = 0;
+  const std::vector<Eigen::Vector3f> pts = scene(4, lone_from);
+  for (int k : {30, 7, 1}) {
+    const std::vector<float> mean = mean_neighbour_distances(pts, k);
+    ASSERT_EQ(mean.size(), pts.size());
+    EXPECT_EQ(mean[lone_from - 1], 0.0f);  // the NaN point
+    size_t exact = 0, finite = 0;
+    for (size_t i = 0; i < pts.size(); i += i < lone_from ? 3 : 1) {  // every third plate point, all others
+      if (!pts[i].allFinite()) {
+        EXPECT_EQ(mean[i], 0.0f);
+        continue;
+      }
+      std::vector<float> d2;
+      for (const Eigen::Vector3f& q : pts) {
+        const float ex = q.x() - pts[i].x(), ey = q.y() - pts[i].y(), ez = q.z() - pts[i].z();
+        if (q.allFinite()) d2.push_back(ex * ex + ey * ey + ez * ez);  // in the order of PCL's search
+      }
+      std::nth_element(d2.begin(), d2.begin() + k, d2.end());
+      std::sort(d2.begin(), d2.begin() + k);
+      double sum = 0.0;
+      for (int j = 1; j <= k; ++j) sum += std::sqrt(static_cast<double>(d2[static_cast<size_t>(j)]));
+      const float want = static_cast<float>(sum / k);
+      ASSERT_NEAR(mean[i], want, 1.5f * std::abs(std::nextafter(want, 1.0f) - want))
+          << "point " << i << ", k " << k;
+      exact += mean[i] == want;
+      ++finite;
+    }
+    EXPECT_GE(exact, finite - finite / 1000) << "k = " << k;
   }
 }
 
