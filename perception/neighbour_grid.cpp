@@ -200,4 +200,80 @@ std::vector<int> statistical_inliers(const std::vector<Eigen::Vector3f>& points,
   return kept;
 }
 
+std::vector<std::vector<int>> euclidean_clusters(const std::vector<Eigen::Vector3f>& points, float tolerance,
+                                                 size_t min_size, size_t max_size) {
+  const size_t n = points.size();
+  std::vector<std::vector<int>> clusters;
+  if (n == 0) return clusters;
+  // Neighbours: squared distance below the squared radius, each in float as nanoflann sums it.
+  const float r2 = static_cast<float>(static_cast<double>(tolerance) * static_cast<double>(tolerance));
+  // Cells a little wider than the radius: two points nearer than it lie in the same or adjacent cells, float
+  // rounding of the cell coordinates included.
+  const float cell = tolerance * 1.001f;
+  Eigen::Vector3f lo = points.front();
+  for (const Eigen::Vector3f& p : points) lo = lo.cwiseMin(p);
+  auto cell_of = [&](const Eigen::Vector3f& p) {
+    Eigen::Array3i c;
+    for (int a = 0; a < 3; ++a) c[a] = static_cast<int>(std::floor((p[a] - lo[a]) / cell));
+    return c;
+  };
+  auto key_of = [](const Eigen::Array3i& c) {
+    return (static_cast<uint64_t>(c[2]) << 42) | (static_cast<uint64_t>(c[1]) << 21) |
+           static_cast<uint64_t>(c[0]);
+  };
+  std::vector<std::pair<uint64_t, uint32_t>> by_cell(n);
+  for (size_t i = 0; i < n; ++i) by_cell[i] = {key_of(cell_of(points[i])), static_cast<uint32_t>(i)};
+  std::sort(by_cell.begin(), by_cell.end());
+
+  std::vector<uint32_t> parent(n);
+  for (size_t i = 0; i < n; ++i) parent[i] = static_cast<uint32_t>(i);
+  auto root = [&](uint32_t i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  auto close = [&](uint32_t i, uint32_t j) {
+    const Eigen::Vector3f& p = points[i];
+    const Eigen::Vector3f& q = points[j];
+    const float dx = p.x() - q.x(), dy = p.y() - q.y(), dz = p.z() - q.z();
+    return dx * dx + dy * dy + dz * dz < r2;
+  };
+  // Every cell against itself and the 13 of its 26 neighbours with a greater key: each pair of cells once.
+  for (size_t a = 0; a < n;) {
+    size_t a_end = a;
+    while (a_end < n && by_cell[a_end].first == by_cell[a].first) ++a_end;
+    const Eigen::Array3i c = cell_of(points[by_cell[a].second]);
+    for (size_t i = a; i < a_end; ++i)
+      for (size_t j = i + 1; j < a_end; ++j)
+        if (close(by_cell[i].second, by_cell[j].second))
+          parent[root(by_cell[i].second)] = root(by_cell[j].second);
+    for (int dz = 0; dz <= 1; ++dz)
+      for (int dy = dz ? -1 : 0; dy <= 1; ++dy)
+        for (int dx = dz || dy ? -1 : 1; dx <= 1; ++dx) {
+          const Eigen::Array3i d = c + Eigen::Array3i(dx, dy, dz);
+          if ((d < 0).any()) continue;
+          const uint64_t key = key_of(d);
+          auto b = std::lower_bound(by_cell.begin() + static_cast<long>(a_end), by_cell.end(),
+                                    std::make_pair(key, uint32_t{0}));
+          for (; b != by_cell.end() && b->first == key; ++b)
+            for (size_t i = a; i < a_end; ++i)
+              if (close(by_cell[i].second, b->second)) parent[root(by_cell[i].second)] = root(b->second);
+        }
+    a = a_end;
+  }
+  // Clusters in the order of their first point (PCL seeds a cluster at the first point not yet taken).
+  std::vector<int> slot(n, -1);
+  std::vector<std::vector<int>> all;
+  for (size_t i = 0; i < n; ++i) {
+    const uint32_t r = root(static_cast<uint32_t>(i));
+    if (slot[r] < 0) slot[r] = static_cast<int>(all.size()), all.emplace_back();
+    all[static_cast<size_t>(slot[r])].push_back(static_cast<int>(i));
+  }
+  for (std::vector<int>& c : all)
+    if (c.size() >= min_size && c.size() <= max_size) clusters.push_back(std::move(c));
+  // PCL's final order: its sort (not stable) by size on the reversed sequence, with the same comparisons.
+  std::sort(clusters.rbegin(), clusters.rend(),
+            [](const std::vector<int>& x, const std::vector<int>& y) { return x.size() < y.size(); });
+  return clusters;
+}
+
 }  // namespace weldtwin

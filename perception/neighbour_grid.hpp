@@ -25,4 +25,12 @@ std::vector<float> mean_neighbour_distances(const std::vector<Eigen::Vector3f>& 
 std::vector<int> statistical_inliers(const std::vector<Eigen::Vector3f>& points, int mean_k,
                                      double stddev_mul);
 
+/// PCL's Euclidean cluster extraction (`pcl::EuclideanClusterExtraction`): the connected sets of points
+/// chained by neighbours nearer than `tolerance`, with `min_size` to `max_size` points; each cluster's
+/// indices ascending, the clusters in PCL's order (by the first index, then PCL's sort by size, largest
+/// first). The neighbours of a grid cell's points are sought in the cells around it and joined by union-find,
+/// where PCL grows each cluster by a radius search per point.
+std::vector<std::vector<int>> euclidean_clusters(const std::vector<Eigen::Vector3f>& points, float tolerance,
+                                                 size_t min_size, size_t max_size);
+
 }  // namespace weldtwin

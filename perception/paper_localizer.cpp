@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <memory>
 
 #include <nanoflann.hpp>
@@ -20,7 +21,6 @@
 #include <pcl/sample_consensus/method_types.h>
 #include <pcl/sample_consensus/model_types.h>
 #include <pcl/search/kdtree.h>
-#include <pcl/segmentation/extract_clusters.h>
 #include <pcl/segmentation/sac_segmentation.h>
 
 #include "perception/neighbour_grid.hpp"
@@ -30,14 +30,13 @@ namespace {
 
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
 
-// PCL's search interface answered by nanoflann, for the paper's Euclidean clusters and ICP (PCL's own
-// algorithms): the same neighbours as PCL's FLANN tree, which opens an OpenMP region and allocates for every
-// single query (`weldtwin_bench --benchmark_filter=Nearest`). Not for use from several threads at once.
+// PCL's search interface answered by nanoflann, for the paper's ICP (PCL's own algorithm): the same
+// neighbours as PCL's FLANN tree, which opens an OpenMP region and allocates for every single query
+// (`weldtwin_bench --benchmark_filter=Nearest`). Not for use from several threads at once.
 class NanoflannSearch : public pcl::search::KdTree<pcl::PointXYZ> {
  public:
   using Ptr = std::shared_ptr<NanoflannSearch>;
-  /// `sorted`: radius searches nearest first (Euclidean clusters do not need it).
-  explicit NanoflannSearch(bool sorted = true) : pcl::search::KdTree<pcl::PointXYZ>(sorted) {}
+  NanoflannSearch() : pcl::search::KdTree<pcl::PointXYZ>(true) {}
 
   void setInputCloud(const PointCloudConstPtr& cloud, const pcl::IndicesConstPtr& indices = {}) override {
     input_ = cloud;
@@ -174,15 +173,17 @@ PoseEstimate localize_paper(const std::vector<Vec3>& scan_base, const Mesh& mesh
     if (in.indices.size() < 100 || -coeff.values[3] / coeff.values[2] < model_height + 0.005) break;
     objects = without(objects, in);
   }
-  // Clusters: the one whose size is closest to the model's.
-  const auto tree = std::make_shared<NanoflannSearch>(false);
+  // Euclidean clusters (PCL's, on a grid: the same clusters in the same order): the one whose size is closest
+  // to the model's.
+  std::vector<Eigen::Vector3f> object_points;
+  object_points.reserve(objects->size());
+  for (const pcl::PointXYZ& p : *objects) object_points.push_back(p.getVector3fMap());
   std::vector<pcl::PointIndices> clusters;
-  pcl::EuclideanClusterExtraction<pcl::PointXYZ> ec;
-  ec.setClusterTolerance(s.cluster_tolerance_m);
-  ec.setMinClusterSize(50);
-  ec.setSearchMethod(tree);
-  ec.setInputCloud(objects);
-  ec.extract(clusters);
+  for (std::vector<int>& c : euclidean_clusters(object_points, static_cast<float>(s.cluster_tolerance_m), 50,
+                                                std::numeric_limits<int>::max())) {
+    clusters.emplace_back();
+    clusters.back().indices.assign(c.begin(), c.end());
+  }
   if (clusters.empty()) return finish("nothing stands on the table");
   double model_size = 0.0;
   for (const Vec3& v : mesh.vertices) model_size = std::max(model_size, v.head<2>().norm());

@@ -1,15 +1,19 @@
 // The grid's statistical outlier filter against PCL's own (pcl_filters, PCL's FLANN tree) on the same clouds:
-// the same points kept, and the filter does filter; the mean distances against a brute-force search.
+// the same points kept, and the filter does filter; the mean distances against a brute-force search. The
+// grid's Euclidean clusters against PCL's, cluster for cluster in the same order.
 #include "perception/neighbour_grid.hpp"
 
 #include <gtest/gtest.h>
 #include <pcl/filters/statistical_outlier_removal.h>
 #include <pcl/point_types.h>
+#include <pcl/search/kdtree.h>
+#include <pcl/segmentation/extract_clusters.h>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
+#include <utility>
 
 namespace weldtwin {
 namespace {
@@ -89,6 +93,52 @@ TEST(NeighbourGridTest, MeanDistancesAreTheBruteForceOnes) {
       ++finite;
     }
     EXPECT_GE(exact, finite - finite / 1000) << "k = " << k;
+  }
+}
+
+// Blobs of random sizes (several of the same size, for the order of PCL's unstable sort), chains of points
+// 0.99 tolerances apart (one cluster each) and 1.01 apart (lone points), the plates and lone points of the
+// scene above, all shuffled.
+TEST(NeighbourGridTest, EuclideanClustersArePclsInPclsOrder) {
+  for (unsigned seed : {5u, 6u}) {
+    size_t lone_from = 0;
+    std::vector<Eigen::Vector3f> pts = scene(seed, lone_from);
+    pts.erase(pts.begin() + static_cast<long>(lone_from) - 1);  // the NaN: PCL's search wants finite points
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+    const float tol = 0.008f;
+    for (int b = 0; b < 40; ++b) {
+      const Eigen::Vector3f c(0.5f + 0.05f * static_cast<float>(b % 8),
+                              -0.5f + 0.05f * static_cast<float>(b / 8), 0.1f);
+      const int size = b < 12 ? 60 : 20 + static_cast<int>(80 * unit(rng));  // twelve of 60
+      for (int i = 0; i < size; ++i)
+        pts.push_back(c + 0.01f * Eigen::Vector3f(unit(rng), unit(rng), unit(rng)));
+    }
+    for (int i = 0; i < 70; ++i) {
+      pts.emplace_back(-0.6f + 0.99f * tol * static_cast<float>(i), 0.4f, 0.2f);
+      pts.emplace_back(-0.6f + 1.01f * tol * static_cast<float>(i), 0.45f, 0.2f);
+    }
+    std::shuffle(pts.begin(), pts.end(), rng);
+    pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+    for (const Eigen::Vector3f& p : pts) cloud->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+    for (const auto& [t, min_size] :
+         {std::pair{tol, size_t{1}}, std::pair{tol, size_t{50}}, std::pair{0.02f, size_t{50}}}) {
+      pcl::EuclideanClusterExtraction<pcl::PointXYZ> ec;
+      ec.setClusterTolerance(t);
+      ec.setMinClusterSize(static_cast<int>(min_size));
+      ec.setSearchMethod(std::make_shared<pcl::search::KdTree<pcl::PointXYZ>>());
+      ec.setInputCloud(cloud);
+      std::vector<pcl::PointIndices> expected;
+      ec.extract(expected);
+      const std::vector<std::vector<int>> clusters = euclidean_clusters(pts, t, min_size, size_t{1} << 31);
+      ASSERT_EQ(clusters.size(), expected.size()) << "seed " << seed << ", tolerance " << t;
+      for (size_t c = 0; c < clusters.size(); ++c)
+        ASSERT_EQ(clusters[c], std::vector<int>(expected[c].indices.begin(), expected[c].indices.end()))
+            << "cluster " << c << ", seed " << seed << ", tolerance " << t;
+      if (min_size == 1) {
+        EXPECT_GT(clusters.size(), 150u);  // the lone points count
+      }
+    }
   }
 }
 
