@@ -5,22 +5,9 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
-#include <nanoflann.hpp>
 
 namespace weldtwin {
 namespace {
-
-struct Points {
-  const std::vector<Eigen::Vector3f>& pts;
-  size_t kdtree_get_point_count() const { return pts.size(); }
-  float kdtree_get_pt(size_t i, size_t d) const { return pts[i][static_cast<Eigen::Index>(d)]; }
-  template <class Box>
-  bool kdtree_get_bbox(Box&) const {
-    return false;
-  }
-};
-using Tree =
-    nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Points>, Points, 3, uint32_t>;
 
 // The `want` smallest of a[0, m) (m >= want >= 1): the largest of them and the sum of their square roots,
 // taken in double as PCL takes them. Quickselect with branch-free three-way partitions, the first about
@@ -65,6 +52,110 @@ Smallest smallest(float* a, size_t m, size_t want, float pivot, float* s1, float
   }
 }
 
+constexpr double kPi = 3.14159265358979323846;
+
+struct Block;
+
+// Points sorted into cubic cells by a counting sort, to gather the points of blocks of cells.
+struct CellGrid {
+  Eigen::Vector3f lo;
+  float cell;
+  long n[3];
+  std::vector<uint32_t> start, order, of;  ///< a cell's points: order[start[cell]..start[cell + 1])
+
+  CellGrid(const std::vector<Eigen::Vector3f>& pts, float cell_m, const Eigen::Vector3f& lo_m,
+           const Eigen::Vector3f& hi_m)
+      : lo(lo_m), cell(std::max(cell_m, 1e-5f)) {
+    for (;;) {
+      for (int a = 0; a < 3; ++a) n[a] = static_cast<long>(std::floor((hi_m[a] - lo[a]) / cell)) + 1;
+      if (static_cast<double>(n[0]) * static_cast<double>(n[1]) * static_cast<double>(n[2]) <= 16e6) break;
+      cell *= 1.5f;
+    }
+    const size_t cells = static_cast<size_t>(n[0] * n[1] * n[2]);
+    start.assign(cells + 1, 0);
+    of.resize(pts.size());
+    long c[3];
+    for (size_t i = 0; i < pts.size(); ++i) {
+      cell_of(pts[i], c);
+      ++start[(of[i] = static_cast<uint32_t>((c[2] * n[1] + c[1]) * n[0] + c[0])) + 1];
+    }
+    for (size_t k = 0; k < cells; ++k) start[k + 1] += start[k];
+    order.resize(pts.size());
+    std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+    for (size_t i = 0; i < pts.size(); ++i) order[fill[of[i]]++] = static_cast<uint32_t>(i);
+  }
+
+  void cell_of(const Eigen::Vector3f& p, long c[3]) const {
+    for (int a = 0; a < 3; ++a) c[a] = std::min(n[a] - 1, static_cast<long>((p[a] - lo[a]) / cell));
+  }
+
+  /// How near p a point outside the block of cells within r of c can be: the distance to the nearest face of
+  /// the block with cells beyond it (infinite when the block covers the grid), less a rounding margin.
+  float reach(const Eigen::Vector3f& p, const long c[3], long r) const {
+    float out = std::numeric_limits<float>::infinity();
+    for (int a = 0; a < 3; ++a) {
+      if (c[a] - r > 0) out = std::min(out, p[a] - (lo[a] + static_cast<float>(c[a] - r) * cell));
+      if (c[a] + r + 1 < n[a]) out = std::min(out, lo[a] + static_cast<float>(c[a] + r + 1) * cell - p[a]);
+    }
+    return out - 1e-5f * cell;
+  }
+
+  bool covers_all(const long c[3], long r) const {
+    for (int a = 0; a < 3; ++a)
+      if (c[a] - r > 0 || c[a] + r + 1 < n[a]) return false;
+    return true;
+  }
+
+  /// The `want` nearest of p exactly (want <= the number of points): blocks of cells around p's cell, r = r0,
+  /// 2 r0, 4 r0, ..., until the want-th is nearer than the block's faces.
+  Smallest nearest(const std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& p, size_t want, long r0,
+                   Block& block) const;
+};
+
+// The points of a block of cells, by coordinate, and room for their distances to one point.
+struct Block {
+  std::vector<float> x, y, z, dist, near, s1, s2;
+
+  void gather(const CellGrid& g, const std::vector<Eigen::Vector3f>& pts, const long c[3], long r) {
+    x.clear(), y.clear(), z.clear();
+    for (long k = std::max(0L, c[2] - r); k <= std::min(g.n[2] - 1, c[2] + r); ++k)
+      for (long j = std::max(0L, c[1] - r); j <= std::min(g.n[1] - 1, c[1] + r); ++j) {
+        const size_t row = static_cast<size_t>((k * g.n[1] + j) * g.n[0]);
+        for (uint32_t i = g.start[row + static_cast<size_t>(std::max(0L, c[0] - r))],
+                      end = g.start[row + static_cast<size_t>(std::min(g.n[0] - 1, c[0] + r)) + 1];
+             i < end; ++i) {
+          const Eigen::Vector3f& p = pts[g.order[i]];
+          x.push_back(p.x()), y.push_back(p.y()), z.push_back(p.z());
+        }
+      }
+    dist.resize(x.size()), near.resize(x.size()), s1.resize(x.size()), s2.resize(x.size());
+  }
+
+  /// Squared distances to p, each summed in PCL's (FLANN's) order.
+  void distances(const Eigen::Vector3f& p) {
+    for (size_t j = 0; j < x.size(); ++j) {
+      const float ex = x[j] - p.x(), ey = y[j] - p.y(), ez = z[j] - p.z();
+      dist[j] = ex * ex + ey * ey + ez * ez;
+    }
+  }
+};
+
+Smallest CellGrid::nearest(const std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& p, size_t want,
+                           long r0, Block& block) const {
+  long c[3];
+  cell_of(p, c);
+  for (long r = r0;; r *= 2) {
+    block.gather(*this, pts, c, r);
+    if (block.dist.size() >= want) {
+      block.distances(p);
+      const Smallest sel = smallest(block.dist.data(), block.dist.size(), want,
+                                    block.dist[block.dist.size() / 2], block.s1.data(), block.s2.data());
+      const float R = reach(p, c, r);
+      if (covers_all(c, r) || (R > 0.0f && sel.kth <= R * R)) return sel;
+    }
+  }
+}
+
 }  // namespace
 
 std::vector<float> mean_neighbour_distances(const std::vector<Eigen::Vector3f>& points, int mean_k) {
@@ -73,110 +164,67 @@ std::vector<float> mean_neighbour_distances(const std::vector<Eigen::Vector3f>& 
   for (size_t i = 0; i < points.size(); ++i)
     if (points[i].allFinite()) finite.push_back(static_cast<uint32_t>(i)), pts.push_back(points[i]);
   std::vector<float> mean_distance(points.size(), 0.0f);
-  if (!pts.empty() && mean_k > 0) {
-    const Points data{pts};
-    const Tree tree(3, data, nanoflann::KDTreeSingleIndexAdaptorParams(10));
-    const size_t want =
-        std::min(static_cast<size_t>(mean_k) + 1, pts.size());  // the first is the point itself
-    std::vector<uint32_t> idx(want);
-    std::vector<float> d2(want);
-    auto mean_of = [&](const float* nearest_first) {  // the first, the point itself, is left out as PCL does
-      double sum = 0.0;
-      for (size_t k = 1; k < want; ++k) sum += std::sqrt(static_cast<double>(nearest_first[k]));
-      return static_cast<float>(sum / mean_k);
-    };
+  if (pts.empty() || mean_k <= 0) return mean_distance;
+  const size_t want = std::min(static_cast<size_t>(mean_k) + 1, pts.size());  // the point itself first
+  Eigen::Vector3f lo = pts.front(), hi = pts.front();
+  for (const Eigen::Vector3f& p : pts) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  Block block, wide;
 
-    // The cell: within it nine points in ten have their neighbours (from a thousand of them).
+  // The cell: within it nine points in ten have their neighbours, from a thousand of them searched on a
+  // first grid whose cell assumes the points spread over the footprint of their box (a surface seen from
+  // above, as a table scan is; any other spread only makes that search take more rings).
+  float cell = 0.0f;
+  {
+    const double area = std::max(1e-12, static_cast<double>(hi.x() - lo.x()) * (hi.y() - lo.y()));
+    const CellGrid first(pts,
+                         static_cast<float>(std::sqrt(area * static_cast<double>(want) /
+                                                      (kPi * static_cast<double>(pts.size())))),
+                         lo, hi);
     std::vector<float> kth;
-    for (size_t i = 0; i < pts.size(); i += std::max<size_t>(1, pts.size() / 1000)) {
-      tree.knnSearch(pts[i].data(), want, idx.data(), d2.data());
-      kth.push_back(std::sqrt(d2[want - 1]));
-    }
+    for (size_t i = 0; i < pts.size(); i += std::max<size_t>(1, pts.size() / 1000))
+      kth.push_back(std::sqrt(first.nearest(pts, pts[i], want, 1, block).kth));
     std::nth_element(kth.begin(), kth.begin() + static_cast<long>(kth.size() * 9 / 10), kth.end());
-    float cell = std::max(kth[kth.size() * 9 / 10], 1e-5f);
-    Eigen::Vector3f lo = pts.front(), hi = pts.front();
-    for (const Eigen::Vector3f& p : pts) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
-    long n[3];
-    for (;;) {
-      for (int a = 0; a < 3; ++a) n[a] = static_cast<long>(std::floor((hi[a] - lo[a]) / cell)) + 1;
-      if (static_cast<double>(n[0]) * static_cast<double>(n[1]) * static_cast<double>(n[2]) <= 16e6) break;
-      cell *= 1.5f;
-    }
-    auto cell_index = [&](const Eigen::Vector3f& p, long c[3]) {
-      for (int a = 0; a < 3; ++a) c[a] = std::min(n[a] - 1, static_cast<long>((p[a] - lo[a]) / cell));
-      return static_cast<size_t>((c[2] * n[1] + c[1]) * n[0] + c[0]);
-    };
-    // Points sorted by cell (counting sort).
-    const size_t cells = static_cast<size_t>(n[0] * n[1] * n[2]);
-    std::vector<uint32_t> start(cells + 1, 0), of(pts.size());
-    long c[3];
-    for (size_t i = 0; i < pts.size(); ++i)
-      ++start[(of[i] = static_cast<uint32_t>(cell_index(pts[i], c))) + 1];
-    for (size_t k = 0; k < cells; ++k) start[k + 1] += start[k];
-    std::vector<uint32_t> order(pts.size()), fill(start.begin(), start.end() - 1);
-    for (size_t i = 0; i < pts.size(); ++i) order[fill[of[i]]++] = static_cast<uint32_t>(i);
+    cell = kth[kth.size() * 9 / 10];
+  }
+  const CellGrid grid(pts, cell, lo, hi);
 
-    std::vector<float> bx, by, bz, dist, near, s1, s2;
-    for (size_t o = 0; o < order.size();) {
-      // The points of this cell, and every point of the block of cells around it.
-      const size_t first = o, here = of[order[o]];
-      while (o < order.size() && of[order[o]] == here) ++o;
-      cell_index(pts[order[first]], c);
-      bx.clear(), by.clear(), bz.clear();
-      for (long z = std::max(0L, c[2] - 1); z <= std::min(n[2] - 1, c[2] + 1); ++z)
-        for (long y = std::max(0L, c[1] - 1); y <= std::min(n[1] - 1, c[1] + 1); ++y) {
-          const size_t row = static_cast<size_t>((z * n[1] + y) * n[0]);
-          for (uint32_t k = start[row + static_cast<size_t>(std::max(0L, c[0] - 1))],
-                        end = start[row + static_cast<size_t>(std::min(n[0] - 1, c[0] + 1)) + 1];
-               k < end; ++k) {
-            const Eigen::Vector3f& p = pts[order[k]];
-            bx.push_back(p.x()), by.push_back(p.y()), bz.push_back(p.z());
-          }
+  for (size_t o = 0; o < grid.order.size();) {
+    // The points of this cell, and every point of the block of cells around it.
+    const size_t first = o, here = grid.of[grid.order[o]];
+    while (o < grid.order.size() && grid.of[grid.order[o]] == here) ++o;
+    long c[3];
+    grid.cell_of(pts[grid.order[first]], c);
+    block.gather(grid, pts, c, 1);
+    float last_kth = -1.0f;  // squared
+    for (size_t q = first; q < o; ++q) {
+      const Eigen::Vector3f& p = pts[grid.order[q]];
+      const float reach = grid.reach(p, c, 1);
+      block.distances(p);
+      // Neighbouring points have about the same k-th distance: select among the distances below a guess
+      // from the last one when there are enough of them, else among all; the last k-th the first pivot.
+      float* d = block.dist.data();
+      size_t m = block.dist.size();
+      if (last_kth >= 0.0f) {
+        const float guess = 1.5f * last_kth;
+        size_t below = 0;
+        for (size_t j = 0; j < block.dist.size(); ++j) {
+          block.near[below] = block.dist[j];
+          below += block.dist[j] <= guess;
         }
-      dist.resize(bx.size());
-      near.resize(bx.size());
-      s1.resize(bx.size());
-      s2.resize(bx.size());
-      float last_kth = -1.0f;  // squared
-      for (size_t q = first; q < o; ++q) {
-        const Eigen::Vector3f& p = pts[order[q]];
-        // Everything nearer than the block's nearest face is in it (a side at the grid's edge has nothing
-        // beyond).
-        float reach = std::numeric_limits<float>::infinity();
-        for (int a = 0; a < 3; ++a) {
-          if (c[a] > 1) reach = std::min(reach, p[a] - (lo[a] + static_cast<float>(c[a] - 1) * cell));
-          if (c[a] + 2 < n[a]) reach = std::min(reach, lo[a] + static_cast<float>(c[a] + 2) * cell - p[a]);
-        }
-        for (size_t j = 0; j < bx.size(); ++j) {
-          const float ex = bx[j] - p.x(), ey = by[j] - p.y(), ez = bz[j] - p.z();
-          dist[j] = ex * ex + ey * ey + ez * ez;
-        }
-        // Neighbouring points have about the same k-th distance: select among the distances below a guess
-        // from the last one when there are enough of them, else among all; the last k-th the first pivot.
-        float* d = dist.data();
-        size_t m = dist.size();
-        if (last_kth >= 0.0f) {
-          const float guess = 1.5f * last_kth;
-          size_t below = 0;
-          for (size_t j = 0; j < dist.size(); ++j) {
-            near[below] = dist[j];
-            below += dist[j] <= guess;
-          }
-          if (below >= want) d = near.data(), m = below;
-        }
-        if (m >= want) {
-          // The point itself is among the `want` nearest at 0: their root sum is PCL's sum over the k others.
-          const Smallest sel =
-              smallest(d, m, want, last_kth >= 0.0f ? last_kth : d[m / 2], s1.data(), s2.data());
-          last_kth = sel.kth;
-          if (reach >= 0.0f && sel.kth <= reach * reach) {
-            mean_distance[finite[order[q]]] = static_cast<float>(sel.root_sum / mean_k);
-            continue;
-          }
-        }
-        tree.knnSearch(p.data(), want, idx.data(), d2.data());  // the neighbours reach beyond the block
-        mean_distance[finite[order[q]]] = mean_of(d2.data());
+        if (below >= want) d = block.near.data(), m = below;
       }
+      Smallest sel{0.0f, 0.0f};
+      const bool selected = m >= want;
+      if (selected) {
+        sel = smallest(d, m, want, last_kth >= 0.0f ? last_kth : d[m / 2], block.s1.data(), block.s2.data());
+        last_kth = sel.kth;
+      }
+      if (!selected || !(reach > 0.0f && sel.kth <= reach * reach)) {
+        // The neighbours reach beyond the block: wider blocks around this point alone.
+        sel = grid.nearest(pts, p, want, 2, wide);
+      }
+      // The point itself is among the `want` nearest at 0: their root sum is PCL's sum over the k others.
+      mean_distance[finite[grid.order[q]]] = static_cast<float>(sel.root_sum / mean_k);
     }
   }
   return mean_distance;

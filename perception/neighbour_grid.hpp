@@ -9,19 +9,20 @@
 
 namespace weldtwin {
 
-/// A point whose mean distance to its `mean_k` nearest neighbours is more than `stddev_mul` standard
-/// deviations above the mean of those distances is an outlier. Non-finite points are kept, as PCL keeps them.
-/// Returns the indices of the points kept, in order.
+/// The mean distance of each point to its `mean_k` nearest neighbours, as PCL's filter computes it (the
+/// square roots summed in double in another order: the same float but for rare ties in rounding); 0 for a
+/// non-finite point.
 ///
 /// The neighbours of all points of a cell are sought among the points of the 3 x 3 x 3 cells around it
 /// (gathered once for the cell); a point's k-th distance found there is the cloud's when it is nearer than
-/// the block's nearest face, otherwise a k-d tree answers. The cell is the distance within which nine in ten
-/// points have their neighbours. The nearest are selected, not sorted: quickselect about the last point's
-/// k-th distance, with branch-free partitions. The mean distance of each point to its `mean_k` nearest
-/// neighbours, as PCL's filter computes it (the sum of the square roots in another order: equal to PCL's to
-/// the float's last bit but for rare ties in rounding); 0 for a non-finite point.
+/// the block's nearest face, otherwise wider blocks around the point answer. The cell is the distance within
+/// which nine in ten points have their neighbours. The nearest are selected, not sorted: quickselect about
+/// the last point's k-th distance, with branch-free partitions.
 std::vector<float> mean_neighbour_distances(const std::vector<Eigen::Vector3f>& points, int mean_k);
 
+/// A point whose mean distance to its `mean_k` nearest neighbours is more than `stddev_mul` standard
+/// deviations above the mean of those distances is an outlier. Non-finite points are kept, as PCL keeps them.
+/// Returns the indices of the points kept, in order.
 std::vector<int> statistical_inliers(const std::vector<Eigen::Vector3f>& points, int mean_k,
                                      double stddev_mul);
 
