@@ -4,7 +4,6 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
-#include <memory>
 
 namespace weldtwin {
 namespace {
@@ -255,23 +254,11 @@ std::vector<std::vector<int>> euclidean_clusters(const std::vector<Eigen::Vector
   if (n == 0) return clusters;
   // Neighbours: squared distance below the squared radius, each in float as nanoflann sums it.
   const float r2 = static_cast<float>(static_cast<double>(tolerance) * static_cast<double>(tolerance));
-  // Cells a little wider than the radius: two points nearer than it lie in the same or adjacent cells, float
-  // rounding of the cell coordinates included.
-  const float cell = tolerance * 1.001f;
-  Eigen::Vector3f lo = points.front();
-  for (const Eigen::Vector3f& p : points) lo = lo.cwiseMin(p);
-  auto cell_of = [&](const Eigen::Vector3f& p) {
-    Eigen::Array3i c;
-    for (int a = 0; a < 3; ++a) c[a] = static_cast<int>(std::floor((p[a] - lo[a]) / cell));
-    return c;
-  };
-  auto key_of = [](const Eigen::Array3i& c) {
-    return (static_cast<uint64_t>(c[2]) << 42) | (static_cast<uint64_t>(c[1]) << 21) |
-           static_cast<uint64_t>(c[0]);
-  };
-  std::vector<std::pair<uint64_t, uint32_t>> by_cell(n);
-  for (size_t i = 0; i < n; ++i) by_cell[i] = {key_of(cell_of(points[i])), static_cast<uint32_t>(i)};
-  std::sort(by_cell.begin(), by_cell.end());
+  // Cells a little wider than the radius (the grid may widen them): two points nearer than it lie in the same
+  // or adjacent cells, float rounding of the cell coordinates included.
+  Eigen::Vector3f lo = points.front(), hi = points.front();
+  for (const Eigen::Vector3f& p : points) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  const CellGrid grid(points, tolerance * 1.001f, lo, hi);
 
   std::vector<uint32_t> parent(n);
   for (size_t i = 0; i < n; ++i) parent[i] = static_cast<uint32_t>(i);
@@ -279,32 +266,30 @@ std::vector<std::vector<int>> euclidean_clusters(const std::vector<Eigen::Vector
     while (parent[i] != i) i = parent[i] = parent[parent[i]];
     return i;
   };
-  auto close = [&](uint32_t i, uint32_t j) {
+  auto join_close = [&](uint32_t i, uint32_t j) {
     const Eigen::Vector3f& p = points[i];
     const Eigen::Vector3f& q = points[j];
     const float dx = p.x() - q.x(), dy = p.y() - q.y(), dz = p.z() - q.z();
-    return dx * dx + dy * dy + dz * dz < r2;
+    if (dx * dx + dy * dy + dz * dz < r2) parent[root(i)] = root(j);
   };
-  // Every cell against itself and the 13 of its 26 neighbours with a greater key: each pair of cells once.
+  // Every cell against itself and the 13 of its 26 neighbours that follow it: each pair of cells once.
+  const std::vector<uint32_t>& order = grid.order;
   for (size_t a = 0; a < n;) {
+    const size_t here = grid.of[order[a]];
     size_t a_end = a;
-    while (a_end < n && by_cell[a_end].first == by_cell[a].first) ++a_end;
-    const Eigen::Array3i c = cell_of(points[by_cell[a].second]);
+    while (a_end < n && grid.of[order[a_end]] == here) ++a_end;
+    long c[3];
+    grid.cell_of(points[order[a]], c);
     for (size_t i = a; i < a_end; ++i)
-      for (size_t j = i + 1; j < a_end; ++j)
-        if (close(by_cell[i].second, by_cell[j].second))
-          parent[root(by_cell[i].second)] = root(by_cell[j].second);
-    for (int dz = 0; dz <= 1; ++dz)
-      for (int dy = dz ? -1 : 0; dy <= 1; ++dy)
-        for (int dx = dz || dy ? -1 : 1; dx <= 1; ++dx) {
-          const Eigen::Array3i d = c + Eigen::Array3i(dx, dy, dz);
-          if ((d < 0).any()) continue;
-          const uint64_t key = key_of(d);
-          auto b = std::lower_bound(by_cell.begin() + static_cast<long>(a_end), by_cell.end(),
-                                    std::make_pair(key, uint32_t{0}));
-          for (; b != by_cell.end() && b->first == key; ++b)
-            for (size_t i = a; i < a_end; ++i)
-              if (close(by_cell[i].second, b->second)) parent[root(by_cell[i].second)] = root(b->second);
+      for (size_t j = i + 1; j < a_end; ++j) join_close(order[i], order[j]);
+    for (long dz = 0; dz <= 1; ++dz)
+      for (long dy = dz ? -1 : 0; dy <= 1; ++dy)
+        for (long dx = dz || dy ? -1 : 1; dx <= 1; ++dx) {
+          const long x = c[0] + dx, y = c[1] + dy, z = c[2] + dz;
+          if (x < 0 || y < 0 || x >= grid.n[0] || y >= grid.n[1] || z >= grid.n[2]) continue;
+          const size_t cell = static_cast<size_t>((z * grid.n[1] + y) * grid.n[0] + x);
+          for (uint32_t k = grid.start[cell]; k < grid.start[cell + 1]; ++k)
+            for (size_t i = a; i < a_end; ++i) join_close(order[i], order[k]);
         }
     a = a_end;
   }
