@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "core/error.hpp"
+#include "sim/contact_prefilter.hpp"
 
 namespace weldtwin {
 namespace {
@@ -198,6 +199,7 @@ void install_mujoco_handlers() {
     mju_user_error = throw_mujoco_error;
     mju_user_warning = ignore_mujoco_warning;
   });
+  install_contact_prefilter();
 }
 
 ModelPtr load_mjcf(const std::string& xml, const std::string& base_dir, const std::string& source) {
