@@ -45,10 +45,34 @@ class NanoflannSearch : public pcl::search::KdTree<pcl::PointXYZ> {
     data_.indices = indices.get();
     index_ = std::make_unique<Index>(3, data_, nanoflann::KDTreeSingleIndexAdaptorParams(10));
     index_->buildIndex();
+    lo_.setConstant(std::numeric_limits<double>::infinity());
+    hi_ = -lo_;
+    for (size_t i = 0; i < data_.kdtree_get_point_count(); ++i) {
+      const Eigen::Vector3d q = (*cloud)[static_cast<size_t>(data_.original(static_cast<uint32_t>(i)))]
+                                    .getVector3fMap()
+                                    .cast<double>();
+      lo_ = lo_.cwiseMin(q), hi_ = hi_.cwiseMax(q);
+    }
   }
+
+  /// ICP's correspondences: a neighbour farther than `bound_m` is rejected whichever it is, so a single
+  /// nearest search from a point that far from the cloud's box answers with the first point (at its true
+  /// distance, beyond the bound) without searching. Infinite (the default): every answer is the nearest.
+  void set_bound(double bound_m) { bound_ = bound_m; }
 
   int nearestKSearch(const pcl::PointXYZ& p, int k, pcl::Indices& idx,
                      std::vector<float>& d2) const override {
+    if (k == 1 && std::isfinite(bound_) && data_.kdtree_get_point_count() > 0) {
+      const Eigen::Vector3d q = p.getVector3fMap().cast<double>();
+      const double gap = (lo_ - q).cwiseMax(q - hi_).cwiseMax(0.0).norm();
+      if (gap > bound_ * (1.0 + 1e-6) + 1e-9) {  // every point is beyond the bound, float rounding included
+        idx.assign(1, data_.original(0));
+        const Eigen::Vector3f first =
+            (*input_)[static_cast<size_t>(idx[0])].getVector3fMap() - p.getVector3fMap();
+        d2.assign(1, first.squaredNorm());
+        return 1;
+      }
+    }
     const size_t want = static_cast<size_t>(std::max(k, 0));
     std::vector<uint32_t>& found = knn_;
     found.resize(want);
@@ -94,6 +118,8 @@ class NanoflannSearch : public pcl::search::KdTree<pcl::PointXYZ> {
       nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Data>, Data, 3, uint32_t>;
   Data data_;
   std::unique_ptr<Index> index_;
+  Eigen::Vector3d lo_ = Eigen::Vector3d::Zero(), hi_ = Eigen::Vector3d::Zero();  ///< the cloud's box
+  double bound_ = std::numeric_limits<double>::infinity();
   mutable std::vector<uint32_t> knn_;  // answers in the making, kept for their memory
   mutable std::vector<std::pair<uint32_t, float>> radius_;
 };
@@ -213,7 +239,9 @@ PoseEstimate localize_paper(const std::vector<Vec3>& scan_base, const Mesh& mesh
   guess.block<3, 1>(0, 3) = (c_scan - c_model).head<3>();
   pcl::IterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> icp;
   icp.setInputSource(source);
-  icp.setSearchMethodTarget(std::make_shared<NanoflannSearch>());
+  const auto search = std::make_shared<NanoflannSearch>();
+  search->set_bound(s.icp_max_distance_m);  // PCL's correspondences take no neighbour beyond it
+  icp.setSearchMethodTarget(search);
   icp.setInputTarget(target);
   icp.setMaximumIterations(s.icp_iterations);
   icp.setMaxCorrespondenceDistance(s.icp_max_distance_m);
@@ -225,6 +253,7 @@ PoseEstimate localize_paper(const std::vector<Vec3>& scan_base, const Mesh& mesh
   T_base_rest.matrix() = M;
   out.T_base_part = orthonormalized(T_base_rest * make_transform(Vec3(0, 0, -min_z), Mat3::Identity()));
   out.converged = icp.hasConverged();
+  search->set_bound(std::numeric_limits<double>::infinity());  // the fitness takes every nearest neighbour
   out.rmse_m = std::sqrt(icp.getFitnessScore());
   out.object_points = static_cast<int>(target->size());
   out.found = true;

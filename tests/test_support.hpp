@@ -9,8 +9,11 @@
 #include "core/cell_spec.hpp"
 #include "core/part_spec.hpp"
 #include "core/robot_model.hpp"
+#include "perception/scan_assembly.hpp"
 #include "sim/cell_layout.hpp"
 #include "sim/mujoco_world.hpp"
+#include "sim/sweep_program.hpp"
+#include "sim/sweep_sim.hpp"
 
 namespace weldtwin::test {
 
@@ -40,6 +43,27 @@ inline JointVector random_q(const RobotModel& robot, std::mt19937_64& rng) {
   for (int j = 0; j < 6; ++j)
     q[j] = std::uniform_real_distribution<double>(robot.lower()[j], robot.upper()[j])(rng);
   return q;
+}
+
+struct TwinScan {
+  std::vector<Vec3> cloud;
+  std::vector<Label> labels;
+  Iso3 truth;
+  PartSpec part;
+  std::vector<Vec3> viewpoints;  ///< where the LiDAR was when it saw each point
+};
+
+// A twin scan with the default LiDAR noise, seeded like the localization survey (layout and noise seed).
+inline TwinScan twin_scan(const std::string& cell_file, uint64_t seed) {
+  Cell cell(cell_file, seed);
+  const SweepProgram program = SweepProgram::load(cell.spec.sweep_program, cell.robot);
+  LidarSetting lidar;
+  lidar.seed = seed;
+  const SweepResult sweep = simulate_sweep(*cell.world, cell.robot, program, lidar);
+  const AssembledCloud a = assemble_scan(sweep.log, cell.robot);
+  TwinScan out{a.points_base, {}, cell.layout.T_base_part, cell.part, a.viewpoints_base};
+  for (uint32_t s : a.sample_index) out.labels.push_back(sweep.labels[s]);
+  return out;
 }
 
 }  // namespace weldtwin::test

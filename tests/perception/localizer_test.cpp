@@ -20,26 +20,8 @@
 namespace weldtwin {
 namespace {
 
-struct TwinScan {
-  std::vector<Vec3> cloud;
-  std::vector<Label> labels;
-  Iso3 truth;
-  PartSpec part;
-  std::vector<Vec3> viewpoints;  ///< where the LiDAR was when it saw each point
-};
-
-// A twin scan with the default LiDAR noise, seeded like the localization survey (layout and noise seed).
-TwinScan twin_scan(const std::string& cell_file, uint64_t seed) {
-  test::Cell cell(cell_file, seed);
-  const SweepProgram program = SweepProgram::load(cell.spec.sweep_program, cell.robot);
-  LidarSetting lidar;
-  lidar.seed = seed;
-  const SweepResult sweep = simulate_sweep(*cell.world, cell.robot, program, lidar);
-  const AssembledCloud a = assemble_scan(sweep.log, cell.robot);
-  TwinScan out{a.points_base, {}, cell.layout.T_base_part, cell.part, a.viewpoints_base};
-  for (uint32_t s : a.sample_index) out.labels.push_back(sweep.labels[s]);
-  return out;
-}
+using test::twin_scan;
+using test::TwinScan;
 
 constexpr double kSeamBar = 1e-3, kRotationBar = 0.5;  // the success bar: m, deg
 
