@@ -158,7 +158,8 @@ ReplayResult replay_plan(const MujocoWorld& world, const RobotModel& robot, cons
   size_t next = 0;
   for (long i = 0; i <= steps && next < plan.samples.size(); ++i) {
     const double t = d->time;
-    // Record every plan sample whose time has come (the state now is the state at t).
+    // Record every plan sample whose time has come: the joints now are the joints at t (the TCP follows from
+    // them below; d's body poses are those the last step started from, a step earlier).
     while (next < plan.samples.size() && plan.samples[next].t_s <= t + 0.5 * setting.timestep_s) {
       ReplaySample& r = out.samples[next];
       const PlanSample& p = plan.samples[next];
@@ -166,7 +167,6 @@ ReplayResult replay_plan(const MujocoWorld& world, const RobotModel& robot, cons
       r.q_ref = p.q;
       for (int j = 0; j < n; ++j) r.q[j] = d->qpos[world.qpos_adr()[static_cast<size_t>(j)]];
       r.tcp_ref = p.T_base_tcp.translation();
-      r.tcp = Vec3(d->xpos[3 * tcp_body], d->xpos[3 * tcp_body + 1], d->xpos[3 * tcp_body + 2]);
       r.seam = p.seam;
       r.arc = p.arc;
       ++next;
@@ -186,6 +186,7 @@ ReplayResult replay_plan(const MujocoWorld& world, const RobotModel& robot, cons
       d->qfrc_applied[v] = dref->qfrc_inverse[v];
     }
     mj_step(m, d.get());
+    // The contacts the step found are those of the state it started from, at t.
     for (int c = 0; c < d->ncon; ++c) {
       const mjContact& con = d->contact[c];
       if (con.dist > 0) continue;
@@ -198,16 +199,17 @@ ReplayResult replay_plan(const MujocoWorld& world, const RobotModel& robot, cons
         rc.robot_geom = geom_name(m, g1);
         rc.other_geom = geom_name(m, g2);
         rc.other = world.geom_label(g2);
-        rc.first_t_s = d->time;
+        rc.first_t_s = t;
       }
-      rc.last_t_s = d->time;
+      rc.last_t_s = t;
       rc.max_depth_m = std::max(rc.max_depth_m, -con.dist);
       ++rc.steps;
     }
   }
   for (auto& [key, c] : contacts) out.contacts.push_back(c);
 
-  // Clearance of every robot geom to the part's exact mesh at every plan sample, on all cores.
+  // The TCP, and the clearance of every robot geom to the part's exact mesh, at every plan sample, on all
+  // cores.
   const PartClearance clearance(world, part_mesh, T_base_part_true, setting.clearance_range_m);
   std::atomic<size_t> next_sample{0};
   auto clearance_worker = [&] {
@@ -218,6 +220,7 @@ ReplayResult replay_plan(const MujocoWorld& world, const RobotModel& robot, cons
       for (size_t k = first; k < std::min(first + kRun, out.samples.size()); ++k) {
         ReplaySample& r = out.samples[k];
         world.set_joints(dk.get(), r.q);
+        r.tcp = Vec3(dk->xpos[3 * tcp_body], dk->xpos[3 * tcp_body + 1], dk->xpos[3 * tcp_body + 2]);
         r.clearance_m = clearance.clearance(dk.get(), &r.clearance_geom, &hint);
       }
   };

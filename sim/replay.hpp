@@ -16,9 +16,9 @@
 namespace weldtwin {
 
 struct ReplaySetting {
-  /// Physics step: two per 200 Hz sample. Joint tracking at most 5e-4 rad (1 ms: 2e-4 at 2.4x the time;
-  /// 5 ms: 9e-4 — integration error, arc-on TCP tracking 0.05 mm and seam errors within 5 um — at half the
-  /// time).
+  /// Physics step: two per 200 Hz sample. Joint tracking at most 5e-4 rad, arc-on TCP tracking 4 um on the
+  /// default cell (1 ms: 2e-4 rad and 1.6 um at 2.4x the time; 5 ms: 9e-4 rad — integration error — and
+  /// 5.5 um, seam errors within 2 um of these, at half the time).
   double timestep_s = 0.0025;
   double bandwidth_hz = 12.0;      ///< servo bandwidth (PD gains from each joint's inertia at the start)
   double damping_ratio = 1.0;      ///< of the servo loops
