@@ -1,5 +1,6 @@
 // Speed of the twin's LiDAR: Embree rays per second on the default cell (against MuJoCo's own mj_ray in the
-// same run), and a whole default sweep against its real duration.
+// same run), and a whole default sweep against its real duration; the sensor's pose per sample; MuJoCo's
+// contacts of the arm with and without the early-out in front of its convex collider.
 #include <benchmark/benchmark.h>
 
 #include <memory>
@@ -7,7 +8,10 @@
 
 #include "core/cell_spec.hpp"
 #include "core/part_spec.hpp"
+#include "planning/weld_planner.hpp"
 #include "sim/body_chain.hpp"
+#include "sim/collision_check.hpp"
+#include "sim/contact_prefilter.hpp"
 #include "sim/embree_scene.hpp"
 #include "sim/sweep_sim.hpp"
 
@@ -123,6 +127,48 @@ void BM_LidarPose(benchmark::State& state) {
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
 }
 BENCHMARK(BM_LidarPose)->Arg(0)->Arg(1);
+
+// MuJoCo's contacts of the default cell's arm (its links' cylinders and boxes against each other, the table,
+// clamps and clutter) at the states of its weld plan: its convex collider for every pair whose bounding
+// spheres meet (0) against the exact early-out in front of it (1). Each state's kinematics included; the part
+// left out, as the replay leaves it out.
+void BM_CellContacts(benchmark::State& state) {
+  DefaultCell& c = cell();
+  // As the replay has it: the part out of MuJoCo's contacts (its exact mesh is checked apart).
+  ModelPtr model(mj_copyModel(nullptr, c.world.model()));
+  mjModel* m = model.get();
+  for (int g = 0; g < m->ngeom; ++g)
+    if (c.world.geom_label(g) == Label::kPart) m->geom_contype[g] = m->geom_conaffinity[g] = 0;
+  DataPtr d(mj_makeData(m));
+  // The states of the default cell's weld plan (at the part's true pose), as the replay steps through them.
+  static const std::vector<JointVector> qs = [&] {
+    PlanSetting setting;
+    setting.collision = CollisionChecker(c.world);
+    const WeldPlan plan = plan_welds(c.part, c.layout.T_base_part, c.robot, setting);
+    std::vector<JointVector> out;
+    for (const PlanSample& p : plan.samples) out.push_back(p.q);
+    return out;
+  }();
+  if (qs.empty()) {
+    state.SkipWithError("the default cell's plan has no samples");
+    return;
+  }
+  enable_contact_prefilter(state.range(0) != 0);
+  size_t i = 0;
+  long contacts = 0;
+  for (auto _ : state) {
+    const JointVector& q = qs[i++ % qs.size()];
+    for (size_t j = 0; j < c.world.qpos_adr().size(); ++j)
+      d->qpos[c.world.qpos_adr()[j]] = q[static_cast<int>(j)];
+    mj_kinematics(m, d.get());
+    mj_collision(m, d.get());
+    contacts += d->ncon;
+  }
+  enable_contact_prefilter(true);
+  state.counters["contacts_per_state"] =
+      static_cast<double>(contacts) / static_cast<double>(state.iterations());
+}
+BENCHMARK(BM_CellContacts)->Arg(0)->Arg(1);
 
 }  // namespace
 }  // namespace weldtwin

@@ -146,6 +146,14 @@ bool boxes_separated(const mjModel* m, const mjData* d, int g1, int g2, double m
   return separated(frame_of(m, d, g1), frame_of(m, d, g2), margin);
 }
 
+void enable_contact_prefilter(bool on) {
+  install_contact_prefilter();
+  if (mujoco_cylinder_cylinder)
+    mjCOLLISIONFUNC[mjGEOM_CYLINDER][mjGEOM_CYLINDER] = on ? cylinder_cylinder : mujoco_cylinder_cylinder;
+  if (mujoco_cylinder_box)
+    mjCOLLISIONFUNC[mjGEOM_CYLINDER][mjGEOM_BOX] = on ? cylinder_box : mujoco_cylinder_box;
+}
+
 mjfCollision prefiltered_collision_function(int type1, int type2) {
   install_contact_prefilter();
   return mjCOLLISIONFUNC[type1][type2];

@@ -14,6 +14,9 @@ namespace weldtwin {
 /// by install_mujoco_handlers).
 void install_contact_prefilter();
 
+/// Takes the early-out out of MuJoCo's table (false) or puts it back (true). For benchmarks: not thread-safe.
+void enable_contact_prefilter(bool on);
+
 /// The collision function for a pair of geom types (type1 <= type2) as MuJoCo calls it once the early-out is
 /// installed, and MuJoCo's own function behind it. For tests.
 mjfCollision prefiltered_collision_function(int type1, int type2);
