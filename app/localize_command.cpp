@@ -79,7 +79,7 @@ int run_localize(const LocalizeCommand& cmd) {
                  pose.found ? "found" : "not found", pose.seconds, pose.fitness, 1e3 * pose.rmse_m,
                  pose.coverage, pose.ambiguity, cmd.out.c_str());
   if (!pose.found) {
-    std::fprintf(stderr, "weldtwin: %s: %s\n", cmd.scan.c_str(), pose.reason.c_str());
+    std::fprintf(stderr, "weldtwin: %s: part not found: %s\n", cmd.scan.c_str(), pose.reason.c_str());
     return 3;
   }
   return 0;

@@ -1182,7 +1182,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   });
   std::sort(refined.begin(), refined.end(), better);
   stage("refine");
-  if (refined.empty()) return finish("part not found");
+  if (refined.empty()) return finish("no pose survived the refinement");
   const Refined& best = refined.front();
 
   // Ambiguity: the best distinct pose that is not the same weld by the part's symmetry, among the coarse and
@@ -1212,10 +1212,8 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, cons
   out.inliers = best.score.inliers;
   out.rays_cast = !ray_points.empty();
   stage("verdict");
-  if (out.free_space > s.max_free_space)
-    return finish("part not found: the table is seen where the best match would stand");
-  if (out.coverage < s.min_coverage)
-    return finish("part not found: the best match covers too little of the model");
+  if (out.free_space > s.max_free_space) return finish("the table is seen where the best match would stand");
+  if (out.coverage < s.min_coverage) return finish("the best match covers too little of the model");
   if (out.fitness < s.min_fitness) return finish("the part fits the scan poorly");
   if (out.wall_residual > s.max_wall_residual)
     return finish("the part's walls fit the scan worse than the noise explains: a different part?");
