@@ -125,6 +125,14 @@ int cylinder_box(const mjModel* m, const mjData* d, mjContact* con, int g1, int 
   return mujoco_cylinder_box(m, d, con, g1, g2, margin);
 }
 
+// MuJoCo's table entries for the two pairs: the early-outs (on) or its own functions.
+void point_table(bool on) {
+  if (mujoco_cylinder_cylinder)
+    mjCOLLISIONFUNC[mjGEOM_CYLINDER][mjGEOM_CYLINDER] = on ? cylinder_cylinder : mujoco_cylinder_cylinder;
+  if (mujoco_cylinder_box)
+    mjCOLLISIONFUNC[mjGEOM_CYLINDER][mjGEOM_BOX] = on ? cylinder_box : mujoco_cylinder_box;
+}
+
 }  // namespace
 
 double cylinder_capsule_gap(const mjModel* m, const mjData* d, int g1, int g2) {
@@ -148,10 +156,7 @@ bool boxes_separated(const mjModel* m, const mjData* d, int g1, int g2, double m
 
 void enable_contact_prefilter(bool on) {
   install_contact_prefilter();
-  if (mujoco_cylinder_cylinder)
-    mjCOLLISIONFUNC[mjGEOM_CYLINDER][mjGEOM_CYLINDER] = on ? cylinder_cylinder : mujoco_cylinder_cylinder;
-  if (mujoco_cylinder_box)
-    mjCOLLISIONFUNC[mjGEOM_CYLINDER][mjGEOM_BOX] = on ? cylinder_box : mujoco_cylinder_box;
+  point_table(on);
 }
 
 mjfCollision prefiltered_collision_function(int type1, int type2) {
@@ -171,8 +176,7 @@ void install_contact_prefilter() {
   std::call_once(once, [] {
     mujoco_cylinder_cylinder = mjCOLLISIONFUNC[mjGEOM_CYLINDER][mjGEOM_CYLINDER];
     mujoco_cylinder_box = mjCOLLISIONFUNC[mjGEOM_CYLINDER][mjGEOM_BOX];
-    if (mujoco_cylinder_cylinder) mjCOLLISIONFUNC[mjGEOM_CYLINDER][mjGEOM_CYLINDER] = cylinder_cylinder;
-    if (mujoco_cylinder_box) mjCOLLISIONFUNC[mjGEOM_CYLINDER][mjGEOM_BOX] = cylinder_box;
+    point_table(true);
   });
 }
 
