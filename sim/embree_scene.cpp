@@ -214,13 +214,14 @@ double bounding_radius(const EmbreeScene::Shape& s) {
 
 }  // namespace
 
-EmbreeScene::EmbreeScene(const mjModel* m, const mjData* d) {
+EmbreeScene::EmbreeScene(const mjModel* m, const mjData* d, const std::function<bool(int geom)>& include) {
   device_ = rtcNewDevice("threads=1,verbose=0");
   if (!device_) throw std::runtime_error("Embree: cannot create a device");
   static_ = rtcNewScene(device_);
 
   std::vector<int> moving_of_body(static_cast<size_t>(m->nbody), -1);
   for (int g = 0; g < m->ngeom; ++g) {
+    if (include && !include(g)) continue;
     if (m->geom_type[g] == mjGEOM_HFIELD)
       throw std::runtime_error("Embree scene: height fields are not supported");
     const int body = m->geom_bodyid[g];

@@ -6,6 +6,7 @@
 // distances match mj_ray.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -26,7 +27,8 @@ struct RayHit {
 class EmbreeScene {
  public:
   /// Builds the scene from the model; static geoms are placed with `d`'s poses (after mj_kinematics).
-  EmbreeScene(const mjModel* m, const mjData* d);
+  /// `include`, if given, picks the geoms (by MuJoCo id) that take part; the rest are left out.
+  EmbreeScene(const mjModel* m, const mjData* d, const std::function<bool(int geom)>& include = nullptr);
   ~EmbreeScene();
   EmbreeScene(const EmbreeScene&) = delete;
   EmbreeScene& operator=(const EmbreeScene&) = delete;

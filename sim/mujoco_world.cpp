@@ -281,10 +281,15 @@ MujocoWorld::MujocoWorld(const CellSpec& cell, const PartSpec& part, const Robot
   }
   const int robot_root = body(robot.links().front().name);
   geom_labels_.resize(static_cast<size_t>(m->ngeom), Label::kOther);
+  placed_.assign(static_cast<size_t>(m->ngeom), 0);
+  const int part_body = body("part");
   for (int g = 0; g < m->ngeom; ++g) {
     const int root = m->body_rootid[m->geom_bodyid[g]];
     const char* name = mj_id2name(m, mjOBJ_BODY, root);
     const std::string n = name ? name : "";
+    // compose_cell_mjcf adds the layout's bodies last, the part's first: MuJoCo numbers bodies, and geoms by
+    // body, in the order they come, so the geoms before them keep their ids in every layout.
+    placed_[static_cast<size_t>(g)] = root >= part_body;
     Label& label = geom_labels_[static_cast<size_t>(g)];
     if (root == robot_root) {
       label = Label::kRobot;

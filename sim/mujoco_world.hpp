@@ -53,6 +53,9 @@ class MujocoWorld {
   void set_joints(mjData* d, const JointVector& q) const;
   Label geom_label(int geom) const { return geom_labels_[static_cast<size_t>(geom)]; }
   const std::vector<Label>& geom_labels() const { return geom_labels_; }
+  /// Whether the layout places the geom (the part, a clamp, clutter); the others (the environment's and the
+  /// arm's) are the same in every layout of the cell and come first, with the same ids.
+  bool placed_by_layout(int geom) const { return placed_[static_cast<size_t>(geom)] != 0; }
   int body(const std::string& name) const;  ///< body id, throws std::out_of_range if missing
   /// qpos address of each arm joint, URDF order.
   const std::vector<int>& qpos_adr() const { return qpos_adr_; }
@@ -63,6 +66,7 @@ class MujocoWorld {
   std::string mjcf_;
   std::vector<int> qpos_adr_;  ///< qpos address of each URDF joint
   std::vector<Label> geom_labels_;
+  std::vector<char> placed_;  ///< per geom: placed by the layout
 };
 
 }  // namespace weldtwin

@@ -5,6 +5,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <functional>
+#include <stdexcept>
+#include <string>
 #include <thread>
 
 #include "sim/body_chain.hpp"
@@ -23,6 +26,8 @@ struct TurnWork {
   const EmbreeScene& scene;
   SweepResult& out;
   int samples_per_turn;
+  const FixedRay* fixed;  ///< the rays and their hits on the shared geometry; the scene: the layout's only
+  FixedRay* record;       ///< cast_fixed_rays: where the rays and their hits go
 };
 
 // Casts turns taken from `next` until none is left, with this thread's own mjData and Embree view.
@@ -60,54 +65,71 @@ void run_turns(const TurnWork& w, std::atomic<size_t>& next, std::atomic<size_t>
       // Sample times are integer multiples of the sample period, as the joint log's are.
       s.t_s = static_cast<double>(i) / w.lidar.sample_rate_hz;  // the double nearest i / rate
       s.angle_rad = static_cast<float>(k * step);
-      const long slice = static_cast<long>(std::floor(s.t_s / w.options.slice_s));
-      if (slice != current_slice) {
-        // The arm's geometry, posed at the start of the slice.
-        const JointVector q_slice = w.program.q(static_cast<double>(slice) * w.options.slice_s);
-        for (size_t b = 0; b < body_poses.size(); ++b)
-          body_poses[b] = w.body_chains[b].pose(q_slice, body_caches[b]);
-        view.update(body_poses);
-        // All of the slice's rays lie in scan planes between those at its start and end.
-        if (w.options.cull_by_scan_plane) {
-          const double t0 = static_cast<double>(slice) * w.options.slice_s;
-          // The sensor at the slice's start: the last slice's end when they follow each other.
-          const Iso3 A = slice == current_slice + 1 ? slice_end : w.chain.pose(q_slice);
-          const Iso3 B = w.chain.pose(w.program.q(t0 + w.options.slice_s));
-          slice_end = B;
-          const double tilt = Eigen::AngleAxisd(A.linear().transpose() * B.linear()).angle();
-          view.restrict_to_plane(A.translation(), A.linear().col(2),
-                                 (B.translation() - A.translation()).norm(), 1.5 * tilt);
+      // The first hit: its distance (< 0: none), the cosine of its incidence, and the geom.
+      double distance = -1.0, cos_incidence = 1.0;
+      int geom = -1;
+      if (w.fixed) {
+        // The shared geometry's hit is known: the layout's geoms are cast against up to it.
+        const FixedRay& f = w.fixed[i];
+        const RayHit hit =
+            view.cast(f.origin, f.dir, 1e-6, f.distance_m >= 0.0 ? f.distance_m : w.lidar.max_range_m * 1.05);
+        if (hit.hit() && (f.distance_m < 0.0 || hit.distance_m < f.distance_m)) {
+          distance = hit.distance_m, geom = hit.geom;
+          cos_incidence = std::clamp(-hit.normal.dot(f.dir), 0.0, 1.0);
+        } else {
+          distance = f.distance_m, geom = f.geom, cos_incidence = f.cos_incidence;
         }
-        current_slice = slice;
+      } else {
+        const long slice = static_cast<long>(std::floor(s.t_s / w.options.slice_s));
+        if (slice != current_slice) {
+          // The arm's geometry, posed at the start of the slice.
+          const JointVector q_slice = w.program.q(static_cast<double>(slice) * w.options.slice_s);
+          for (size_t b = 0; b < body_poses.size(); ++b)
+            body_poses[b] = w.body_chains[b].pose(q_slice, body_caches[b]);
+          view.update(body_poses);
+          // All of the slice's rays lie in scan planes between those at its start and end.
+          if (w.options.cull_by_scan_plane) {
+            const double t0 = static_cast<double>(slice) * w.options.slice_s;
+            // The sensor at the slice's start: the last slice's end when they follow each other.
+            const Iso3 A = slice == current_slice + 1 ? slice_end : w.chain.pose(q_slice);
+            const Iso3 B = w.chain.pose(w.program.q(t0 + w.options.slice_s));
+            slice_end = B;
+            const double tilt = Eigen::AngleAxisd(A.linear().transpose() * B.linear()).angle();
+            view.restrict_to_plane(A.translation(), A.linear().col(2),
+                                   (B.translation() - A.translation()).norm(), 1.5 * tilt);
+          }
+          current_slice = slice;
+        }
+        const size_t a = i / knot_step * knot_step;
+        if (a != knot_a && a + knot_step < w.out.log.samples.size()) {
+          Ta = knot_a != SIZE_MAX && a == knot_a + knot_step ? Tb
+                                                             : exact_pose(a);  // the last end is this start
+          Tb = exact_pose(a + knot_step);
+          knot_a = a;
+        }
+        Iso3 T = Ta;
+        if (a + knot_step >= w.out.log.samples.size()) {
+          T = exact_pose(i);  // the last samples, past the last knot
+        } else if (i > a) {
+          T = lerp_pose(Ta, Tb, static_cast<double>(i - a) / static_cast<double>(knot_step));
+        }
+        if (w.options.record_sensor_poses) w.out.T_base_lidar[i] = T;
+        // The ray leaves the scan centre in the scan plane, counter-clockwise about +z from +x.
+        const Vec3 dir = (T.linear() * beam[k]).normalized();
+        const RayHit hit = view.cast(T.translation(), dir, 1e-6, w.lidar.max_range_m * 1.05);
+        if (hit.hit()) {
+          distance = hit.distance_m, geom = hit.geom;
+          cos_incidence = std::clamp(-hit.normal.dot(dir), 0.0, 1.0);
+        }
+        if (w.record) w.record[i] = FixedRay{T.translation(), dir, distance, cos_incidence, geom};
       }
-      const size_t a = i / knot_step * knot_step;
-      if (a != knot_a && a + knot_step < w.out.log.samples.size()) {
-        Ta =
-            knot_a != SIZE_MAX && a == knot_a + knot_step ? Tb : exact_pose(a);  // the last end is this start
-        Tb = exact_pose(a + knot_step);
-        knot_a = a;
-      }
-      Iso3 T = Ta;
-      if (a + knot_step >= w.out.log.samples.size()) {
-        T = exact_pose(i);  // the last samples, past the last knot
-      } else if (i > a) {
-        T = lerp_pose(Ta, Tb, static_cast<double>(i - a) / static_cast<double>(knot_step));
-      }
-      if (w.options.record_sensor_poses) w.out.T_base_lidar[i] = T;
-      // The ray leaves the scan centre in the scan plane, counter-clockwise about +z from +x.
-      const Vec3 dir = (T.linear() * beam[k]).normalized();
-      const RayHit hit = view.cast(T.translation(), dir, 1e-6, w.lidar.max_range_m * 1.05);
-      exact[k] = hit.hit() ? hit.distance_m : 0.0;
+      exact[k] = distance >= 0.0 ? distance : 0.0;
       double r = 0.0;
-      double cos_incidence = 1.0;
-      if (hit.hit()) {
-        cos_incidence = std::clamp(-hit.normal.dot(dir), 0.0, 1.0);
-        r = errors.measure(hit.distance_m, cos_incidence);
-      }
+      if (distance >= 0.0) r = errors.measure(distance, cos_incidence);
       s.range_m = static_cast<float>(r);
       s.quality = r > 0.0 ? LidarErrorModel::quality(r, cos_incidence) : 0;
-      w.out.geoms[i] = r > 0.0 ? hit.geom : -1;
-      w.out.labels[i] = r > 0.0 ? w.world.geom_label(hit.geom) : Label::kNone;
+      w.out.geoms[i] = r > 0.0 ? geom : -1;
+      w.out.labels[i] = r > 0.0 ? w.world.geom_label(geom) : Label::kNone;
     }
     // Mixed pixels: where neighbours straddle a depth edge, the beam footprint covers both surfaces and the
     // A2 reports a range in between.
@@ -129,17 +151,22 @@ void run_turns(const TurnWork& w, std::atomic<size_t>& next, std::atomic<size_t>
   }
 }
 
-}  // namespace
+double sweep_duration(const SweepProgram& program, const SweepOptions& options) {
+  return options.max_duration_s > 0.0 ? std::min(options.max_duration_s, program.duration_s())
+                                      : program.duration_s();
+}
 
-SweepResult simulate_sweep(const MujocoWorld& world, const RobotModel& robot, const SweepProgram& program,
-                           const LidarSetting& lidar, const SweepOptions& options) {
+size_t sweep_turns(const SweepProgram& program, const LidarSetting& lidar, const SweepOptions& options) {
+  return static_cast<size_t>(std::floor(sweep_duration(program, options) * lidar.turn_rate_hz));
+}
+
+SweepResult sweep(const MujocoWorld& world, const RobotModel& robot, const SweepProgram& program,
+                  const LidarSetting& lidar, const SweepOptions& options, FixedRay* record) {
   const auto wall_start = std::chrono::steady_clock::now();
   SweepResult out;
-  const double duration = options.max_duration_s > 0.0
-                              ? std::min(options.max_duration_s, program.duration_s())
-                              : program.duration_s();
+  const double duration = sweep_duration(program, options);
   const int per_turn = lidar.samples_per_turn();
-  const size_t turns = static_cast<size_t>(std::floor(duration * lidar.turn_rate_hz));
+  const size_t turns = sweep_turns(program, lidar, options);
 
   ScanLog& log = out.log;
   log.source = "sim";
@@ -168,12 +195,24 @@ SweepResult simulate_sweep(const MujocoWorld& world, const RobotModel& robot, co
   }
 
   const BodyChain chain(world.model(), world.body(options.lidar_link), world.qpos_adr());
-  const EmbreeScene scene(world.model(), world.data());
+  const FixedRay* fixed = record ? nullptr : options.fixed_rays;
+  if (fixed && options.fixed_ray_count != n)
+    throw std::invalid_argument("simulate_sweep: fixed_rays are for " +
+                                std::to_string(options.fixed_ray_count) + " samples, this sweep has " +
+                                std::to_string(n));
+  if (fixed && options.record_sensor_poses)
+    throw std::invalid_argument("simulate_sweep: fixed_rays do not give the sensor poses");
+  // With fixed rays, the layout's geoms only; to record them, the rest only; else all.
+  std::function<bool(int)> include;
+  if (fixed) include = [&world](int g) { return world.placed_by_layout(g); };
+  if (record) include = [&world](int g) { return !world.placed_by_layout(g); };
+  const EmbreeScene scene(world.model(), world.data(), include);
   std::vector<BodyChain> body_chains;
   for (int b : scene.moving_bodies()) body_chains.emplace_back(world.model(), b, world.qpos_adr());
   const int threads = std::max(
       1, options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency()));
-  const TurnWork work{world, program, lidar, options, chain, body_chains, scene, out, per_turn};
+  const TurnWork work{world, program, lidar,    options, chain, body_chains,
+                      scene, out,     per_turn, fixed,   record};
   std::atomic<size_t> next{0}, done{0};
   std::vector<std::thread> pool;
   for (int k = 0; k < threads; ++k)
@@ -186,6 +225,25 @@ SweepResult simulate_sweep(const MujocoWorld& world, const RobotModel& robot, co
   if (options.progress) options.progress(1.0);
   out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return out;
+}
+
+}  // namespace
+
+SweepResult simulate_sweep(const MujocoWorld& world, const RobotModel& robot, const SweepProgram& program,
+                           const LidarSetting& lidar, const SweepOptions& options) {
+  return sweep(world, robot, program, lidar, options, nullptr);
+}
+
+size_t sweep_sample_count(const SweepProgram& program, const LidarSetting& lidar,
+                          const SweepOptions& options) {
+  return sweep_turns(program, lidar, options) * static_cast<size_t>(lidar.samples_per_turn());
+}
+
+void cast_fixed_rays(const MujocoWorld& world, const RobotModel& robot, const SweepProgram& program,
+                     const LidarSetting& lidar, const SweepOptions& options, FixedRay* out) {
+  SweepOptions o = options;
+  o.record_sensor_poses = false;
+  sweep(world, robot, program, lidar, o, out);
 }
 
 }  // namespace weldtwin

@@ -15,6 +15,8 @@
 
 namespace weldtwin {
 
+struct FixedRay;
+
 struct SweepOptions {
   double slice_s = 0.005;            ///< moving geometry is re-posed at the start of every slice [s]
   double joint_log_hz = 0.0;         ///< joint-state log rate; 0: the program's rate
@@ -26,6 +28,22 @@ struct SweepOptions {
                                      ///< linearly between (1: at every sample; 8 is 1 ms at 8 kHz)
   std::string lidar_link = "lidar";
   std::function<void(double done_fraction)> progress;  ///< called now and then from the calling thread
+  /// From cast_fixed_rays for this cell, robot, program, LiDAR and options: every sample's ray and its hit on
+  /// the geometry all layouts share, so that only the layout's geoms (part, clamps, clutter) are cast
+  /// against — the same sweep for less work (a randomized benchmark casts the shared part once per cell).
+  /// Not with record_sensor_poses.
+  const FixedRay* fixed_rays = nullptr;
+  size_t fixed_ray_count = 0;
+};
+
+/// A sample's ray and where it first meets the geometry of the cell that its layout does not place: the
+/// environment (table, walls, floor) and the arm, the same for every layout of the cell.
+struct FixedRay {
+  Vec3 origin = Vec3::Zero();  ///< the sensor at the sample's time, base frame
+  Vec3 dir = Vec3::UnitX();    ///< unit
+  double distance_m = -1.0;    ///< < 0: nothing within range
+  double cos_incidence = 1.0;  ///< of the hit
+  int geom = -1;               ///< MuJoCo geom id of the hit
 };
 
 struct SweepResult {
@@ -40,5 +58,14 @@ struct SweepResult {
 /// (SweepOptions::slice_s); the sensor itself at the sample's time (SweepOptions::sensor_knot_samples).
 SweepResult simulate_sweep(const MujocoWorld& world, const RobotModel& robot, const SweepProgram& program,
                            const LidarSetting& lidar, const SweepOptions& options = {});
+
+/// The number of samples simulate_sweep takes with these settings.
+size_t sweep_sample_count(const SweepProgram& program, const LidarSetting& lidar,
+                          const SweepOptions& options);
+
+/// Every sample's ray cast against the part of `world` that its layout does not place (any layout of the
+/// cell will do): `out` has sweep_sample_count() slots. For SweepOptions::fixed_rays.
+void cast_fixed_rays(const MujocoWorld& world, const RobotModel& robot, const SweepProgram& program,
+                     const LidarSetting& lidar, const SweepOptions& options, FixedRay* out);
 
 }  // namespace weldtwin

@@ -179,6 +179,54 @@ TEST(SweepSim, CullingArmShapesByScanPlaneChangesNothing) {
   EXPECT_GT(robot, 1000u);  // the arm is in view, so the culling had something to get wrong
 }
 
+// The rays and their hits on what every layout shares, cast in one layout, serve another: its sweep cast
+// against its own part, clamps and clutter only is the sweep cast against everything.
+TEST(SweepSim, FixedRaysOfAnotherLayoutGiveTheSameSweep) {
+  test::Cell first("scenes/cells/tube_tee.yaml", 11);
+  test::Cell cell("scenes/cells/tube_tee.yaml", 12);
+  const SweepProgram program = SweepProgram::load(cell.spec.sweep_program, cell.robot);
+  LidarSetting lidar;
+  lidar.mixed_pixels = true;
+  lidar.seed = 5;
+  SweepOptions options;
+  options.max_duration_s = 60.0;  // passes, transitions, the arm in view
+  std::vector<FixedRay> fixed(sweep_sample_count(program, lidar, options));
+  cast_fixed_rays(*first.world, first.robot, program, lidar, options, fixed.data());
+  const SweepResult all = simulate_sweep(*cell.world, cell.robot, program, lidar, options);
+  ASSERT_EQ(all.log.samples.size(), fixed.size());
+  options.fixed_rays = fixed.data();
+  options.fixed_ray_count = fixed.size();
+  const SweepResult some = simulate_sweep(*cell.world, cell.robot, program, lidar, options);
+  const mjModel* m = cell.world->model();
+  size_t placed = 0, robot = 0, table = 0, ties = 0;
+  for (size_t i = 0; i < all.log.samples.size(); ++i) {
+    ASSERT_EQ(all.log.samples[i].range_m, some.log.samples[i].range_m) << i;
+    ASSERT_EQ(all.log.samples[i].quality, some.log.samples[i].quality) << i;
+    ASSERT_EQ(all.log.samples[i].t_s, some.log.samples[i].t_s) << i;
+    ASSERT_EQ(all.labels[i], some.labels[i]) << i;
+    // Where two geoms of one body share a face (a clamp's arm on its post), which of them a ray meets first,
+    // at the same range, is the ray tracer's tie (its hierarchy differs with the scene and the CPU).
+    if (all.geoms[i] != some.geoms[i]) {
+      ASSERT_GE(all.geoms[i], 0) << i;
+      ASSERT_GE(some.geoms[i], 0) << i;
+      ASSERT_EQ(m->geom_bodyid[all.geoms[i]], m->geom_bodyid[some.geoms[i]]) << i;
+      ++ties;
+    }
+    placed += all.geoms[i] >= 0 && cell.world->placed_by_layout(all.geoms[i]);
+    robot += all.labels[i] == Label::kRobot;
+    table += all.labels[i] == Label::kTable;
+  }
+  // Each source of hits had plenty to get wrong: the layout's geoms, the arm, the table (which the part and
+  // clamps of `first` shade where `cell`'s do not).
+  EXPECT_GT(placed, 5000u);
+  EXPECT_GT(robot, 1000u);
+  EXPECT_GT(table, 20000u);
+  EXPECT_LT(ties, all.log.samples.size() / 1000);
+  // Rays of another sweep are refused.
+  options.fixed_ray_count = fixed.size() - 1;
+  EXPECT_THROW(simulate_sweep(*cell.world, cell.robot, program, lidar, options), std::invalid_argument);
+}
+
 TEST(SweepSim, SensorPosedAtKnotsAndInterpolatedIsWithinAMicrometreOfPosedAtEverySample) {
   test::Cell cell;
   const SweepProgram program = SweepProgram::load(cell.spec.sweep_program, cell.robot);
