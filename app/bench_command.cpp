@@ -1,5 +1,6 @@
 #include "app/bench_command.hpp"
 
+#include <malloc.h>
 #include <poll.h>
 #include <signal.h>
 #include <sys/mman.h>
@@ -11,8 +12,10 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <deque>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -374,13 +377,68 @@ std::string duration_text(double s) {
   return b;
 }
 
-struct Child {
+// A trial, drawn from (seed, index) and run in this process; what it throws is its failure.
+json trial_line(const BenchCommand& cmd, const std::vector<BenchCell>& cells, uint64_t index,
+                const BenchCell* calibration) {
+  Draw d;
+  try {
+    draw_trial(cmd, cells, index, d);
+  } catch (const std::exception& e) {
+    return failed_trial(cmd, cells, d, std::string("error: the cell could not be drawn: ") + e.what(), 0.0);
+  }
+  try {
+    inject_fault(cmd.faults, index);
+    json line = run_trial(cmd, cells[d.cell], d, calibration);
+    line["draw"] = draw_json(d, cells, cmd);
+    return line;
+  } catch (const std::exception& e) {
+    return failed_trial(cmd, cells, d, std::string("error: ") + e.what(), 0.0);
+  }
+}
+
+bool write_all(int fd, const std::string& text) {
+  for (size_t off = 0; off < text.size();) {
+    const ssize_t n = write(fd, text.data() + off, text.size() - off);
+    if (n <= 0) return false;
+    off += static_cast<size_t>(n);
+  }
+  return true;
+}
+
+// A worker: a process forked from the one that loaded the cells, running the trials it is handed (their
+// slots, one per line) one after another and answering each with its JSON line. A trial that crashes or hangs
+// takes its worker with it, and a new one takes over. Trials after a worker's first run in the memory the
+// ones before freed (malloc keeps it: no mmap, no trimming): a process per trial spent about a tenth of
+// its time faulting fresh pages in.
+struct Worker {
   pid_t pid = -1;
-  int fd = -1;
-  size_t slot = 0;  ///< position in this shard's list of trials
+  int to = -1;    ///< slots, one per line
+  int from = -1;  ///< the trials' lines
+  bool busy = false;
+  size_t slot = 0;  ///< the trial it runs: position in this shard's list of trials
+  int handed = 0;   ///< trials handed to it so far
   std::string text;
   Clock::time_point start;
 };
+
+[[noreturn]] void worker_main(int in, int out, const BenchCommand& cmd, const std::vector<BenchCell>& cells,
+                              const std::vector<uint64_t>& indices, const BenchCell* calibration) {
+  mallopt(M_MMAP_MAX, 0);
+  mallopt(M_TRIM_THRESHOLD, std::numeric_limits<int>::max());
+  std::string pending;
+  for (;;) {
+    size_t nl;
+    while ((nl = pending.find('\n')) == std::string::npos) {
+      char buf[64];
+      const ssize_t n = read(in, buf, sizeof buf);
+      if (n <= 0) _exit(0);  // no more trials
+      pending.append(buf, static_cast<size_t>(n));
+    }
+    const size_t slot = std::stoull(pending.substr(0, nl));
+    pending.erase(0, nl + 1);
+    if (!write_all(out, trial_line(cmd, cells, indices[slot], calibration).dump() + '\n')) _exit(1);
+  }
+}
 
 }  // namespace
 
@@ -434,15 +492,17 @@ int run_bench(const BenchCommand& cmd_in) {
                  indices.size(), cmd.shard, cmd.shards, cmd.trials, static_cast<unsigned long long>(cmd.seed),
                  cmd.jobs, cells.size(), cmd.out.c_str());
 
-  std::vector<Draw> draws(indices.size());
   std::vector<std::string> lines(indices.size());
   std::vector<bool> done(indices.size(), false);
-  size_t next = 0, written = 0, finished = 0, passed = 0, ours_ok = 0;
-  std::vector<Child> running;
+  size_t written = 0, finished = 0, passed = 0, ours_ok = 0;
   size_t resumed = 0;
+  std::deque<size_t> todo;
   for (size_t slot = 0; slot < indices.size(); ++slot) {
     const auto it = earlier.find(indices[slot]);
-    if (it == earlier.end()) continue;
+    if (it == earlier.end()) {
+      todo.push_back(slot);
+      continue;
+    }
     lines[slot] = it->second;
     done[slot] = true;
     ++resumed;
@@ -454,7 +514,7 @@ int run_bench(const BenchCommand& cmd_in) {
     std::fprintf(stderr, "bench: %zu trials kept from %s\n", resumed, cmd.out.c_str());
   const auto t_start = Clock::now();
   const std::vector<std::pair<void*, size_t>> shared_rays =
-      finished < indices.size() ? cast_shared_rays(cells) : std::vector<std::pair<void*, size_t>>();
+      todo.empty() ? std::vector<std::pair<void*, size_t>>() : cast_shared_rays(cells);
   std::fflush(nullptr);  // children inherit no half-written buffers
 
   auto finish = [&](size_t slot, const json& line) {
@@ -487,110 +547,122 @@ int run_bench(const BenchCommand& cmd_in) {
                    line["seconds"].value("total", 0.0), duration_text(eta).c_str());
     }
   };
+  // The line of a trial whose worker died or was killed.
+  auto lost = [&](size_t slot, const std::string& cause, double seconds) {
+    Draw d;
+    try {
+      draw_trial(cmd, cells, indices[slot], d);
+    } catch (const std::exception&) {
+      d.index = indices[slot];
+    }
+    finish(slot, failed_trial(cmd, cells, d, cause, seconds));
+  };
+
+  // A worker is retired after this many trials, its memory with it.
+  constexpr int kTrialsPerWorker = 100;
+  // A write to a worker that has just died must fail, not end this process.
+  struct sigaction ignore {
+  }, old_pipe{};
+  ignore.sa_handler = SIG_IGN;
+  sigaction(SIGPIPE, &ignore, &old_pipe);
+  std::vector<Worker> workers(static_cast<size_t>(std::max(1, cmd.jobs)));
+  auto retire = [](Worker& w, bool kill_it) {
+    if (w.pid < 0) return 0;
+    if (kill_it) kill(w.pid, SIGKILL);
+    close(w.to);
+    close(w.from);
+    int status = 0;
+    waitpid(w.pid, &status, 0);
+    w = Worker();
+    return status;
+  };
+  auto spawn = [&](Worker& w) {
+    int to[2], from[2];
+    if (pipe(to) != 0 || pipe(from) != 0)
+      throw std::runtime_error("bench: pipe() failed: " + std::string(std::strerror(errno)));
+    const pid_t pid = fork();
+    if (pid < 0) throw std::runtime_error("bench: fork() failed: " + std::string(std::strerror(errno)));
+    if (pid == 0) {
+      close(to[1]);
+      close(from[0]);
+      for (const Worker& o : workers)
+        if (o.pid > 0) close(o.to), close(o.from);
+      worker_main(to[0], from[1], cmd, cells, indices, calibration ? &*calibration : nullptr);
+    }
+    close(to[0]);
+    close(from[1]);
+    w = Worker();
+    w.pid = pid, w.to = to[1], w.from = from[0];
+  };
 
   while (finished < indices.size()) {
-    while (next < indices.size() && static_cast<int>(running.size()) < cmd.jobs) {
-      const size_t slot = next++;
-      if (done[slot]) continue;  // kept from an earlier run
-      Child child;
-      child.slot = slot;
-      child.start = Clock::now();
-      try {
-        draw_trial(cmd, cells, indices[slot], draws[slot]);
-      } catch (const std::exception& e) {
-        finish(slot, failed_trial(cmd, cells, draws[slot],
-                                  std::string("error: the cell could not be drawn: ") + e.what(), 0.0));
+    for (Worker& w : workers) {
+      if (w.busy || todo.empty()) continue;
+      if (w.pid > 0 && w.handed >= kTrialsPerWorker) retire(w, false);
+      if (w.pid < 0) spawn(w);
+      w.slot = todo.front();
+      w.busy = true;
+      w.start = Clock::now();
+      ++w.handed;
+      w.text.clear();
+      if (!write_all(w.to, std::to_string(w.slot) + '\n')) {  // died idle: the trial goes to a new worker
+        retire(w, true);
         continue;
       }
-      int fds[2];
-      if (pipe(fds) != 0)
-        throw std::runtime_error("bench: pipe() failed: " + std::string(std::strerror(errno)));
-      child.pid = fork();
-      if (child.pid < 0)
-        throw std::runtime_error("bench: fork() failed: " + std::string(std::strerror(errno)));
-      if (child.pid == 0) {  // the trial
-        close(fds[0]);
-        for (const Child& c : running) close(c.fd);
-        std::string text;
-        try {
-          inject_fault(cmd.faults, indices[slot]);
-          const Draw& d = draws[slot];
-          json line = run_trial(cmd, cells[d.cell], d, calibration ? &*calibration : nullptr);
-          line["draw"] = draw_json(d, cells, cmd);
-          text = line.dump();
-        } catch (const std::exception& e) {
-          text = failed_trial(cmd, cells, draws[slot], std::string("error: ") + e.what(), 0.0).dump();
-        }
-        text += '\n';
-        for (size_t off = 0; off < text.size();) {
-          const ssize_t n = write(fds[1], text.data() + off, text.size() - off);
-          if (n <= 0) break;
-          off += static_cast<size_t>(n);
-        }
-        _exit(0);
-      }
-      close(fds[1]);
-      child.fd = fds[0];
-      running.push_back(child);
+      todo.pop_front();
     }
-    if (running.empty()) continue;
     std::vector<pollfd> polls;
-    for (const Child& c : running) polls.push_back({c.fd, POLLIN, 0});
+    std::vector<Worker*> polled;
+    for (Worker& w : workers)
+      if (w.busy) polls.push_back({w.from, POLLIN, 0}), polled.push_back(&w);
+    if (polls.empty()) continue;
     poll(polls.data(), polls.size(), 200);
-    for (size_t k = 0; k < running.size();) {
-      Child& c = running[k];
+    for (size_t k = 0; k < polls.size(); ++k) {
+      Worker& w = *polled[k];
       bool ended = false;
       if (polls[k].revents & (POLLIN | POLLHUP | POLLERR)) {
         char buf[65536];
-        const ssize_t n = read(c.fd, buf, sizeof buf);
+        const ssize_t n = read(w.from, buf, sizeof buf);
         if (n > 0)
-          c.text.append(buf, static_cast<size_t>(n));
+          w.text.append(buf, static_cast<size_t>(n));
         else
           ended = true;
       }
-      const double age = std::chrono::duration<double>(Clock::now() - c.start).count();
-      if (!ended && age > cmd.timeout_s) {
-        kill(c.pid, SIGKILL);
-        int status = 0;
-        waitpid(c.pid, &status, 0);
-        close(c.fd);
-        char cause[96];
-        std::snprintf(cause, sizeof cause, "timeout: killed after %.0f s", cmd.timeout_s);
-        finish(c.slot, failed_trial(cmd, cells, draws[c.slot], cause, age));
-        running.erase(running.begin() + static_cast<std::ptrdiff_t>(k));
-        polls.erase(polls.begin() + static_cast<std::ptrdiff_t>(k));
-        continue;
-      }
-      if (!ended) {
-        ++k;
-        continue;
-      }
-      int status = 0;
-      waitpid(c.pid, &status, 0);
-      close(c.fd);
-      json line;
-      bool parsed = false;
-      if (WIFEXITED(status) && WEXITSTATUS(status) == 0 && !c.text.empty()) {
+      const double age = std::chrono::duration<double>(Clock::now() - w.start).count();
+      const size_t nl = w.text.find('\n');
+      if (nl != std::string::npos) {
+        json line;
         try {
-          line = json::parse(c.text);
-          parsed = true;
+          line = json::parse(w.text.substr(0, nl));
         } catch (const std::exception&) {
+          const size_t slot = w.slot;
+          retire(w, true);
+          lost(slot, "crash: the trial's line could not be read", age);
+          continue;
         }
-      }
-      if (!parsed) {
+        w.busy = false;
+        finish(w.slot, line);
+      } else if (ended) {
+        const size_t slot = w.slot;
+        const int status = retire(w, false);
         std::string cause;
         if (WIFSIGNALED(status))
           cause =
               "crash: signal " + std::to_string(WTERMSIG(status)) + " (" + strsignal(WTERMSIG(status)) + ")";
         else
           cause = "crash: exited with code " + std::to_string(WEXITSTATUS(status)) + " and no result";
-        line = failed_trial(cmd, cells, draws[c.slot], cause, age);
+        lost(slot, cause, age);
+      } else if (age > cmd.timeout_s) {
+        const size_t slot = w.slot;
+        retire(w, true);
+        char cause[96];
+        std::snprintf(cause, sizeof cause, "timeout: killed after %.0f s", cmd.timeout_s);
+        lost(slot, cause, age);
       }
-      finish(c.slot, line);
-      running.erase(running.begin() + static_cast<std::ptrdiff_t>(k));
-      polls.erase(polls.begin() + static_cast<std::ptrdiff_t>(k));
     }
   }
+  for (Worker& w : workers) retire(w, false);  // on the end of their input, workers exit
+  sigaction(SIGPIPE, &old_pipe, nullptr);
   const double elapsed = std::chrono::duration<double>(Clock::now() - t_start).count();
   if (tty) std::fprintf(stderr, "\n");
   if (!cmd.quiet)

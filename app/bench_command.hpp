@@ -16,7 +16,7 @@ namespace weldtwin {
 struct BenchCommand {
   int trials = 100;  ///< trial indices 0 .. trials-1 (of which this shard runs its share)
   uint64_t seed = 1;
-  int jobs = 0;   ///< trials in flight at once (child processes); 0: one per core
+  int jobs = 0;   ///< trials in flight at once (worker processes); 0: one per core
   int shard = 0;  ///< this shard, 0 .. shards-1: runs the indices i with i % shards == shard
   int shards = 1;
   std::string out;                 ///< JSON lines, in index order

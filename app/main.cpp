@@ -152,7 +152,7 @@ int main(int argc, char** argv) {
   bc->add_option("--trials", bench.trials, "trials in the whole benchmark (all shards)")
       ->capture_default_str();
   bc->add_option("--seed", bench.seed, "benchmark seed")->capture_default_str();
-  bc->add_option("--jobs", bench.jobs, "trials at once, each in its own process (default: one per core)");
+  bc->add_option("--jobs", bench.jobs, "trials at once, in as many worker processes (default: one per core)");
   bc->add_option("--shard", shard,
                  "K/N: run only the trials whose index i has i % N == K (K from 0), for splitting across "
                  "machines")

@@ -17,11 +17,14 @@ std::vector<JointVector> free_joint_path(const JointVector& a, const JointVector
                                          double resolution_rad, double max_seconds) {
   namespace ob = ompl::base;
   namespace og = ompl::geometric;
-  static std::once_flag once;
-  std::call_once(once, [] {
-    ompl::msg::setLogLevel(ompl::msg::LOG_WARN);
-    ompl::RNG::setSeed(20261122);  // before any sampler exists: the same questions, the same paths
-  });
+  // OMPL seeds every sampler it makes from one process-wide sequence: it starts over at every call (OMPL
+  // complains when it is restarted; quiet), so that the same question gets the same answer whatever was asked
+  // before in the process — a worker of `weldtwin bench` runs one trial after another. One call at a time.
+  static std::mutex mutex;
+  const std::lock_guard<std::mutex> lock(mutex);
+  ompl::msg::setLogLevel(ompl::msg::LOG_NONE);
+  ompl::RNG::setSeed(20261122);
+  ompl::msg::setLogLevel(ompl::msg::LOG_WARN);
   const int n = static_cast<int>(a.size());
   auto space = std::make_shared<ob::RealVectorStateSpace>(static_cast<unsigned>(n));
   ob::RealVectorBounds bounds(static_cast<unsigned>(n));

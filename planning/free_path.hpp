@@ -1,5 +1,6 @@
-// A collision-free joint-space path between two free configurations, by OMPL's RRT-Connect (seeded, so the
-// same question gets the same answer in a process) and OMPL's path simplification.
+// A collision-free joint-space path between two free configurations, by OMPL's RRT-Connect (seeded afresh at
+// every call, so the same question gets the same answer, whatever was asked before) and OMPL's path
+// simplification.
 #pragma once
 
 #include <functional>
