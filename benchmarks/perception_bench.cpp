@@ -17,7 +17,9 @@
 #include "core/cell_spec.hpp"
 #include "core/geometry.hpp"
 #include "core/part_spec.hpp"
+#include "perception/mesh_io.hpp"
 #include "perception/neighbour_grid.hpp"
+#include "perception/paper_localizer.hpp"
 #include "perception/scan_assembly.hpp"
 #include "sim/sweep_sim.hpp"
 
@@ -192,3 +194,46 @@ void BM_EuclideanClustersGrid(benchmark::State& state) {
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * pts.size()));
 }
 BENCHMARK(BM_EuclideanClustersGrid)->Unit(benchmark::kMillisecond);
+
+// The paper's whole pipeline on twin scans of a tube and of a tee (seeds whose clusters are ~340 and ~12,600
+// points; ICP is most of the tee's time), with ICP's reused neighbours (Arg 1) and with PCL's own
+// correspondence search on the same tree (Arg 0): the same pose (paper_localizer_test).
+struct PaperScan {
+  std::vector<weldtwin::Vec3> points;
+  weldtwin::Mesh mesh;
+};
+
+const PaperScan& paper_scan(int which) {
+  static const std::vector<PaperScan> scans = [] {
+    using namespace weldtwin;
+    std::vector<PaperScan> out;
+    for (const auto& [name, seed] : {std::pair{"default", 3}, {"tube_tee", 4}}) {
+      const CellSpec spec =
+          CellSpec::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/" + name + ".yaml");
+      const PartSpec part = PartSpec::load(spec.part_spec);
+      const RobotModel robot = RobotModel::load(spec.robot_urdf);
+      const MujocoWorld world(spec, part, robot, make_layout(spec, part, seed));
+      LidarSetting lidar;
+      lidar.seed = static_cast<uint64_t>(seed);
+      const SweepResult sweep =
+          simulate_sweep(world, robot, SweepProgram::load(spec.sweep_program, robot), lidar);
+      out.push_back({assemble_scan(sweep.log, robot).points_base, load_mesh(part.mesh_path)});
+    }
+    return out;
+  }();
+  return scans[static_cast<size_t>(which)];
+}
+
+void BM_PaperPipeline(benchmark::State& state) {
+  const PaperScan& scan = paper_scan(static_cast<int>(state.range(0)));
+  weldtwin::PaperSetting setting;
+  setting.icp_reuse_neighbours = state.range(1) != 0;
+  for (auto _ : state) {
+    const weldtwin::PoseEstimate pose = weldtwin::localize_paper(scan.points, scan.mesh, setting);
+    benchmark::DoNotOptimize(pose.rmse_m);
+  }
+}
+BENCHMARK(BM_PaperPipeline)
+    ->ArgsProduct({{0, 1}, {0, 1}})
+    ->ArgNames({"tee", "reuse"})
+    ->Unit(benchmark::kMillisecond);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <stdexcept>
 
 #include <nanoflann.hpp>
 
@@ -45,6 +46,7 @@ class NanoflannSearch : public pcl::search::KdTree<pcl::PointXYZ> {
     data_.indices = indices.get();
     index_ = std::make_unique<Index>(3, data_, nanoflann::KDTreeSingleIndexAdaptorParams(10));
     index_->buildIndex();
+    ++generation_;
     lo_.setConstant(std::numeric_limits<double>::infinity());
     hi_ = -lo_;
     for (size_t i = 0; i < data_.kdtree_get_point_count(); ++i) {
@@ -60,18 +62,35 @@ class NanoflannSearch : public pcl::search::KdTree<pcl::PointXYZ> {
   /// distance, beyond the bound) without searching. Infinite (the default): every answer is the nearest.
   void set_bound(double bound_m) { bound_ = bound_m; }
 
+  /// Whether every point lies beyond the bound from `p` (float rounding included): its box does.
+  bool beyond_bound(const pcl::PointXYZ& p) const {
+    if (!std::isfinite(bound_) || data_.kdtree_get_point_count() == 0) return false;
+    const Eigen::Vector3d q = p.getVector3fMap().cast<double>();
+    const double gap = (lo_ - q).cwiseMax(q - hi_).cwiseMax(0.0).norm();
+    return gap > bound_ * (1.0 + 1e-6) + 1e-9;
+  }
+
+  /// The two nearest points (tree order, not the original cloud's) and their squared distances, as the tree
+  /// computes them; returns how many there are (0-2).
+  size_t nearest(const pcl::PointXYZ& p, size_t k, uint32_t* idx, float* d2) const {
+    return data_.kdtree_get_point_count() == 0 ? 0 : index_->knnSearch(p.data, k, idx, d2);
+  }
+  /// The squared distance from `p` to tree point `i`, computed as the tree computes it.
+  float squared_distance(const pcl::PointXYZ& p, uint32_t i) const {
+    return index_->distance.evalMetric(p.data, i, 3);
+  }
+  int original(uint32_t i) const { return data_.original(i); }
+  /// Counts the clouds set: what was found in an earlier one does not hold in this one.
+  size_t generation() const { return generation_; }
+
   int nearestKSearch(const pcl::PointXYZ& p, int k, pcl::Indices& idx,
                      std::vector<float>& d2) const override {
-    if (k == 1 && std::isfinite(bound_) && data_.kdtree_get_point_count() > 0) {
-      const Eigen::Vector3d q = p.getVector3fMap().cast<double>();
-      const double gap = (lo_ - q).cwiseMax(q - hi_).cwiseMax(0.0).norm();
-      if (gap > bound_ * (1.0 + 1e-6) + 1e-9) {  // every point is beyond the bound, float rounding included
-        idx.assign(1, data_.original(0));
-        const Eigen::Vector3f first =
-            (*input_)[static_cast<size_t>(idx[0])].getVector3fMap() - p.getVector3fMap();
-        d2.assign(1, first.squaredNorm());
-        return 1;
-      }
+    if (k == 1 && beyond_bound(p)) {
+      idx.assign(1, data_.original(0));
+      const Eigen::Vector3f first =
+          (*input_)[static_cast<size_t>(idx[0])].getVector3fMap() - p.getVector3fMap();
+      d2.assign(1, first.squaredNorm());
+      return 1;
     }
     const size_t want = static_cast<size_t>(std::max(k, 0));
     std::vector<uint32_t>& found = knn_;
@@ -120,8 +139,109 @@ class NanoflannSearch : public pcl::search::KdTree<pcl::PointXYZ> {
   std::unique_ptr<Index> index_;
   Eigen::Vector3d lo_ = Eigen::Vector3d::Zero(), hi_ = Eigen::Vector3d::Zero();  ///< the cloud's box
   double bound_ = std::numeric_limits<double>::infinity();
+  size_t generation_ = 0;
   mutable std::vector<uint32_t> knn_;  // answers in the making, kept for their memory
   mutable std::vector<std::pair<uint32_t, float>> radius_;
+};
+
+// ICP's correspondences, those of PCL's CorrespondenceEstimation (each source point's nearest target point,
+// when within the distance: the same matches and distances), without searching again for a source point whose
+// nearest cannot have changed since its last search. A search finds the two nearest, at d1 < d2; a point
+// moved by m since is still nearest to the first while d1 + m < d2 - m, and has none within the distance
+// while d1 - m is beyond it. (A tie, d1 = d2, is searched as PCL searches it, every time.) Late in ICP the
+// source moves by micrometres a step: most points are not searched again.
+class CachedCorrespondences
+    : public pcl::registration::CorrespondenceEstimation<pcl::PointXYZ, pcl::PointXYZ, float> {
+ public:
+  explicit CachedCorrespondences(std::shared_ptr<const NanoflannSearch> search)
+      : search_(std::move(search)) {}
+
+  void determineCorrespondences(pcl::Correspondences& correspondences, double max_distance) override {
+    if (!initCompute()) return;
+    if (tree_.get() != search_.get())
+      throw std::logic_error("CachedCorrespondences: ICP searches another tree than this one's");
+    if (generation_ != search_->generation() || cache_.size() != input_->size()) {
+      cache_.assign(input_->size(), Entry());
+      generation_ = search_->generation();
+    }
+    const double max_dist_sqr = max_distance * max_distance;
+    constexpr double kSlack = 1e-6;  // m: far above the float rounding of the distances
+    correspondences.resize(indices_->size());
+    size_t valid = 0;
+    pcl::Indices one(1);
+    std::vector<float> one_d2(1);
+    for (const auto& idx : *indices_) {
+      const pcl::PointXYZ& p = (*input_)[static_cast<size_t>(idx)];
+      Entry& e = cache_[static_cast<size_t>(idx)];
+      int match = -1;
+      float d2 = 0.0f;
+      if (search_->beyond_bound(p)) continue;  // PCL's search would find nothing within the distance
+      const double moved =
+          e.valid ? (p.getVector3fMap() - Eigen::Map<const Eigen::Vector3f>(e.at)).cast<double>().norm()
+                  : 0.0;
+      bool found = false;
+      if (e.valid && e.first_m - moved > max_distance + kSlack) {
+        continue;  // none within the distance, as at the last search
+      }
+      if (e.valid && e.last_m - moved > kSlack) {
+        // The nearest now, if nearer than the last search's farthest candidate is now at the least.
+        float best = std::numeric_limits<float>::infinity(), tie = best;
+        uint32_t best_i = 0;
+        for (int k = 0; k < e.count; ++k) {
+          const float d = search_->squared_distance(p, e.candidates[k]);
+          if (d < best)
+            tie = best, best = d, best_i = e.candidates[k];
+          else if (d < tie)
+            tie = d;
+        }
+        if (best < tie && std::sqrt(static_cast<double>(best)) + kSlack < e.last_m - moved) {
+          match = search_->original(best_i), d2 = best, found = true;
+        }
+      }
+      if (!found) {
+        uint32_t near[kCandidates];
+        float near_d2[kCandidates];
+        const size_t n = search_->nearest(p, kCandidates, near, near_d2);
+        if (n == 0) continue;
+        if (n >= 2 && near_d2[0] == near_d2[1]) {  // a tie: PCL's own single search decides
+          e.valid = false;
+          search_->nearestKSearch(p, 1, one, one_d2);
+          match = one[0];
+          d2 = one_d2[0];
+        } else {
+          e.valid = true;
+          e.at[0] = p.x, e.at[1] = p.y, e.at[2] = p.z;
+          e.count = static_cast<int>(n);
+          std::copy(near, near + n, e.candidates);
+          e.first_m = std::sqrt(static_cast<double>(near_d2[0]));
+          e.last_m = n == kCandidates ? std::sqrt(static_cast<double>(near_d2[n - 1]))
+                                      : std::numeric_limits<double>::infinity();
+          match = search_->original(near[0]);
+          d2 = near_d2[0];
+        }
+      }
+      if (d2 > max_dist_sqr) continue;
+      pcl::Correspondence& c = correspondences[valid++];
+      c.index_query = idx;
+      c.index_match = match;
+      c.distance = d2;
+    }
+    correspondences.resize(valid);
+    deinitCompute();
+  }
+
+ private:
+  static constexpr int kCandidates = 8;
+  struct Entry {
+    float at[3] = {0, 0, 0};           ///< where the source point was searched from
+    uint32_t candidates[kCandidates];  ///< tree indices of its nearest then, nearest first
+    int count = 0;
+    double first_m = 0.0, last_m = 0.0;  ///< the nearest's and the last candidate's distance then
+    bool valid = false;
+  };
+  std::shared_ptr<const NanoflannSearch> search_;
+  std::vector<Entry> cache_;
+  size_t generation_ = 0;
 };
 
 Cloud::Ptr without(const Cloud::Ptr& in, const pcl::PointIndices& drop) {
@@ -242,6 +362,8 @@ PoseEstimate localize_paper(const std::vector<Vec3>& scan_base, const Mesh& mesh
   const auto search = std::make_shared<NanoflannSearch>();
   search->set_bound(s.icp_max_distance_m);  // PCL's correspondences take no neighbour beyond it
   icp.setSearchMethodTarget(search);
+  if (s.icp_reuse_neighbours)
+    icp.setCorrespondenceEstimation(std::make_shared<CachedCorrespondences>(search));
   icp.setInputTarget(target);
   icp.setMaximumIterations(s.icp_iterations);
   icp.setMaxCorrespondenceDistance(s.icp_max_distance_m);

@@ -21,6 +21,10 @@ struct PaperSetting {
   double cluster_tolerance_m = 0.008;
   int icp_iterations = 50;
   double icp_max_distance_m = 0.05;
+  /// ICP's correspondences without searching again for a source point whose nearest target point cannot have
+  /// changed since it was last searched: the same matches as PCL's search for each (false: PCL's own
+  /// correspondence estimation, for comparison).
+  bool icp_reuse_neighbours = true;
 };
 
 /// The baseline. `found` is true whenever a cluster was registered; `rmse_m` is the root of PCL's fitness.
