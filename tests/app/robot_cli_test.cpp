@@ -190,8 +190,9 @@ TEST(RobotCli, ALiveSweepMovesTheArmAndIsRecorded) {
                             " --execute --out " + (dir / "run").string(),
                         dir);
   EXPECT_EQ(finish(c), 3) << slurp(c.err);
-  EXPECT_NE(slurp(c.out).find("the run did not pass (part not found: no table plane in the scan)"),
-            std::string::npos)
+  // Which check refuses the ring depends on how the live turns fell against the joint states (no table plane,
+  // or a best match covering too little of the model when the machine is busy): that the part is not found.
+  EXPECT_NE(slurp(c.out).find("the run did not pass (part not found: "), std::string::npos)
       << slurp(c.out) << slurp(c.err);
   // The controller ran the sweep program (and nothing else: no part, no plan).
   const size_t samples = static_cast<size_t>(std::ceil(program.duration_s() / 0.005)) + 1;
