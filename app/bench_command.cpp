@@ -561,8 +561,7 @@ int run_bench(const BenchCommand& cmd_in) {
   // A worker is retired after this many trials, its memory with it.
   constexpr int kTrialsPerWorker = 100;
   // A write to a worker that has just died must fail, not end this process.
-  struct sigaction ignore {
-  }, old_pipe{};
+  struct sigaction ignore = {}, old_pipe = {};
   ignore.sa_handler = SIG_IGN;
   sigaction(SIGPIPE, &ignore, &old_pipe);
   std::vector<Worker> workers(static_cast<size_t>(std::max(1, cmd.jobs)));
