@@ -162,7 +162,7 @@ void set_verdict(json& j, const std::vector<std::string>& reasons) {
 
 // Every trial of a cell sweeps the same arm over the same table: the rays and what they meet of the
 // environment and the arm are cast once per cell, each cell in a child process (Embree's thread pool stays
-// out of the process that forks the trials), into shared memory the trials' children read; a trial then
+// out of the process that forks the workers), into shared memory the workers read; a trial then
 // casts only against its own part, clamps and clutter. Cells whose cast fails are swept whole by each trial.
 // (A child reads the shared pages in 64 KB at a fault; a private copy in the parent, whose page tables a
 // fork would copy, was no faster.)
@@ -170,6 +170,7 @@ void set_verdict(json& j, const std::vector<std::string>& reasons) {
 std::vector<std::pair<void*, size_t>> cast_shared_rays(std::vector<BenchCell>& cells) {
   std::vector<std::pair<void*, size_t>> maps;
   std::vector<pid_t> pids;
+  std::vector<size_t> counts;
   std::fflush(nullptr);
   for (BenchCell& c : cells) {
     LidarSetting lidar;
@@ -177,6 +178,7 @@ std::vector<std::pair<void*, size_t>> cast_shared_rays(std::vector<BenchCell>& c
     SweepOptions options;
     options.threads = 1;
     const size_t n = sweep_sample_count(c.program, lidar, options);
+    counts.push_back(n);
     const size_t bytes = std::max<size_t>(1, n * sizeof(FixedRay));
     void* p = mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
     maps.emplace_back(p == MAP_FAILED ? nullptr : p, bytes);
@@ -197,10 +199,8 @@ std::vector<std::pair<void*, size_t>> cast_shared_rays(std::vector<BenchCell>& c
     const bool ok = pids[k] > 0 && waitpid(pids[k], &status, 0) == pids[k] && WIFEXITED(status) &&
                     WEXITSTATUS(status) == 0;
     if (!ok || maps[k].first == nullptr) continue;
-    LidarSetting lidar;
-    lidar.apply(cells[k].cell.lidar_overrides, cells[k].cell.source);
     cells[k].fixed_rays = static_cast<const FixedRay*>(maps[k].first);
-    cells[k].fixed_ray_count = sweep_sample_count(cells[k].program, lidar, SweepOptions());
+    cells[k].fixed_ray_count = counts[k];
   }
   return maps;
 }
