@@ -17,6 +17,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <random>
@@ -57,6 +58,14 @@ struct BenchCell {
   /// The sweep's rays and their hits on what all layouts of the cell share (cast_shared_rays); null: none.
   const FixedRay* fixed_rays = nullptr;
   size_t fixed_ray_count = 0;
+  /// The part made ready for our localizer, by the first trial of a worker that localizes it (not in the
+  /// parent: its Embree device is not to cross a fork); every answer is the one the mesh itself gives.
+  mutable std::shared_ptr<const PreparedPart> prepared;
+
+  const PreparedPart& prepared_part(const LocalizeSetting& setting) const {
+    if (!prepared) prepared = std::make_shared<const PreparedPart>(mesh, setting);
+    return *prepared;
+  }
 
   explicit BenchCell(const std::string& file)
       : cell(CellSpec::load(file)),
@@ -271,7 +280,7 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d, const
   LocalizeSetting setting;
   setting.threads = 1;
   const PoseEstimate ours =
-      localize(cloud.points_base, c.mesh, setting, c.seam_points, cloud.viewpoints_base);
+      localize(cloud.points_base, c.prepared_part(setting), setting, c.seam_points, cloud.viewpoints_base);
   const PoseError ours_error = pose_error(c.part, ours.T_base_part, d.layout.T_base_part, c.symmetry);
   j["ours"] = pose_json(ours, ours_error);
   lap("ours");
@@ -522,7 +531,7 @@ int run_bench(const BenchCommand& cmd_in) {
     done[slot] = true;
     ++finished;
     if (line.value("verdict", "") == "pass") ++passed;
-    if (line.contains("ours") && line["ours"].value("success", false)) ++ours_ok;
+    if (line.value("seams_under_1mm", false)) ++ours_ok;  // the target's measure, as bench-report counts it
     while (written < lines.size() && done[written]) {
       out << lines[written] << '\n';
       lines[written].clear();
@@ -535,7 +544,7 @@ int run_bench(const BenchCommand& cmd_in) {
         elapsed / static_cast<double>(finished - resumed) * static_cast<double>(indices.size() - finished);
     if (tty) {
       const int width = 30, filled = static_cast<int>(width * finished / indices.size());
-      std::fprintf(stderr, "\rbench [%s%s] %zu/%zu  ours within 1 mm %zu, welded %zu  %s, ETA %s   ",
+      std::fprintf(stderr, "\rbench [%s%s] %zu/%zu  ours: seams within 1 mm %zu, welded %zu  %s, ETA %s   ",
                    std::string(static_cast<size_t>(filled), '#').c_str(),
                    std::string(static_cast<size_t>(width - filled), '.').c_str(), finished, indices.size(),
                    ours_ok, passed, duration_text(elapsed).c_str(), duration_text(eta).c_str());
@@ -665,7 +674,8 @@ int run_bench(const BenchCommand& cmd_in) {
   const double elapsed = std::chrono::duration<double>(Clock::now() - t_start).count();
   if (tty) std::fprintf(stderr, "\n");
   if (!cmd.quiet)
-    std::fprintf(stderr, "bench: %zu trials in %s (%.2f s a trial): ours within 1 mm %zu, welded %zu; %s\n",
+    std::fprintf(stderr,
+                 "bench: %zu trials in %s (%.2f s a trial): ours: seams within 1 mm %zu, welded %zu; %s\n",
                  indices.size(), duration_text(elapsed).c_str(),
                  elapsed / std::max<double>(1.0, static_cast<double>(indices.size())), ours_ok, passed,
                  cmd.out.c_str());

@@ -15,6 +15,7 @@
 // onto each other are equal).
 #pragma once
 
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -103,6 +104,22 @@ std::vector<Vec3> voxel_centroids(const std::vector<Vec3>& points, double leaf_m
 /// closed form by SVD of the 2x2 cross-covariance). Returns the transform applied to `from`.
 Iso3 planar_rigid_fit(const std::vector<Vec3>& from, const std::vector<Vec3>& to);
 
+/// A part's mesh made ready for localize(): surface samples, which of them a scanner can see, the mesh for
+/// rays, the footprint (tens of milliseconds for a part). To localize many scans of one part, prepare it
+/// once; every answer is the one localize() gives with the mesh itself. One may be shared by several
+/// localize() calls at once (a lookup grid inside it fills as it is asked, with the same answers whoever
+/// fills it).
+class PreparedPart {
+ public:
+  explicit PreparedPart(const Mesh& mesh, const LocalizeSetting& setting = {});
+
+ private:
+  struct Impl;
+  std::shared_ptr<Impl> impl_;
+  friend PoseEstimate localize(const std::vector<Vec3>&, const PreparedPart&, const LocalizeSetting&,
+                               const std::vector<Vec3>&, const std::vector<Vec3>&);
+};
+
 /// Localizes `model` (part frame, resting on z = its lowest vertex) in `scan_base`. `seam_points` (part
 /// frame, optional) are points along the part's weld seams, about 1 mm apart: two poses that map them onto
 /// each other weld the same place, so they are not ambiguous even where the mesh itself is not symmetric (a
@@ -110,6 +127,12 @@ Iso3 planar_rigid_fit(const std::vector<Vec3>& from, const std::vector<Vec3>& to
 /// when it saw each point: it tells the two sides of a thin wall apart, which the points alone cannot under
 /// range noise comparable to the wall's thickness.
 PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& model,
+                      const LocalizeSetting& setting = {}, const std::vector<Vec3>& seam_points = {},
+                      const std::vector<Vec3>& viewpoints_base = {});
+
+/// The same with the part prepared beforehand (with the same model spacing as `setting`'s; another throws
+/// std::invalid_argument). The "model" stage is then the time to look it up, not to build it.
+PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& part,
                       const LocalizeSetting& setting = {}, const std::vector<Vec3>& seam_points = {},
                       const std::vector<Vec3>& viewpoints_base = {});
 

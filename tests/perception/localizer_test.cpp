@@ -236,6 +236,35 @@ TEST(Localizer, RaysCastFromTheirViewpointsFindTheSquareTubeWhereItsPointsAloneD
   }
 }
 
+TEST(Localizer, APreparedPartGivesTheMeshsAnswersScanAfterScan) {
+  // One prepared part, used on a scan and then on another (its lookup grid already filled by the first):
+  // the second answer is, to the bit, the one the mesh itself gives. Prepared with another model spacing
+  // than the setting's, it is refused.
+  const TwinScan first = twin_scan("scenes/cells/default.yaml", 3),
+                 second = twin_scan("scenes/cells/default.yaml", 4);
+  const Mesh mesh = load_mesh(first.part.mesh_path);
+  const std::vector<Vec3> seams = first.part.seam_points(0.001);
+  const PreparedPart part(mesh);
+  const PoseEstimate warm = localize(first.cloud, part, LocalizeSetting(), seams, first.viewpoints);
+  ASSERT_TRUE(warm.found) << warm.reason;
+  const PoseEstimate reused = localize(second.cloud, part, LocalizeSetting(), seams, second.viewpoints);
+  const PoseEstimate fresh = localize(second.cloud, mesh, LocalizeSetting(), seams, second.viewpoints);
+  ASSERT_TRUE(fresh.found) << fresh.reason;
+  EXPECT_EQ(reused.found, fresh.found);
+  EXPECT_EQ(reused.reason, fresh.reason);
+  EXPECT_TRUE(reused.T_base_part.matrix() == fresh.T_base_part.matrix());
+  EXPECT_EQ(reused.fitness, fresh.fitness);
+  EXPECT_EQ(reused.coverage, fresh.coverage);
+  EXPECT_EQ(reused.ambiguity, fresh.ambiguity);
+  EXPECT_EQ(reused.wall_residual, fresh.wall_residual);
+  EXPECT_EQ(reused.iterations, fresh.iterations);
+  // The two scans are of different layouts: equal answers are not equal inputs.
+  EXPECT_GT((warm.T_base_part.translation() - reused.T_base_part.translation()).norm(), 0.01);
+  LocalizeSetting coarse;
+  coarse.model_spacing_m = 0.004;
+  EXPECT_THROW(localize(second.cloud, part, coarse), std::invalid_argument);
+}
+
 TEST(Localizer, CloudFilesCarryTheViewpointOfEveryPoint) {
   // Written with viewpoints: PCL's x y z vp_x vp_y vp_z, read back point for point (binary and ascii).
   // Without them (and from a file without those fields) no viewpoints. A row with a non-finite viewpoint is
