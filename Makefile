@@ -30,7 +30,7 @@ bench: build
 	$(BUILD)/benchmarks/weldtwin_bench --benchmark_min_time=0.5
 
 # The randomized-pose benchmark: TRIALS random cells end to end, ours and the paper's method side by side, and
-# its report (out/bench/report.html). About 10 minutes for 1000 trials on 2 cores.
+# its report (out/bench/report.html). About 7 minutes for 1000 trials on 2 cores (up to 10 on slower hosts).
 TRIALS ?= 1000
 random-bench: build
 	@mkdir -p $(OUT)/bench
