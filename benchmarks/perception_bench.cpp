@@ -17,6 +17,7 @@
 #include "core/cell_spec.hpp"
 #include "core/geometry.hpp"
 #include "core/part_spec.hpp"
+#include "perception/localizer.hpp"
 #include "perception/mesh_io.hpp"
 #include "perception/neighbour_grid.hpp"
 #include "perception/paper_localizer.hpp"
@@ -199,8 +200,9 @@ BENCHMARK(BM_EuclideanClustersGrid)->Unit(benchmark::kMillisecond);
 // points; ICP is most of the tee's time), with ICP's reused neighbours (Arg 1) and with PCL's own
 // correspondence search on the same tree (Arg 0): the same pose (paper_localizer_test).
 struct PaperScan {
-  std::vector<weldtwin::Vec3> points;
+  std::vector<weldtwin::Vec3> points, viewpoints;
   weldtwin::Mesh mesh;
+  std::vector<weldtwin::Vec3> seam_points;
 };
 
 const PaperScan& paper_scan(int which) {
@@ -217,7 +219,9 @@ const PaperScan& paper_scan(int which) {
       lidar.seed = static_cast<uint64_t>(seed);
       const SweepResult sweep =
           simulate_sweep(world, robot, SweepProgram::load(spec.sweep_program, robot), lidar);
-      out.push_back({assemble_scan(sweep.log, robot).points_base, load_mesh(part.mesh_path)});
+      const AssembledCloud cloud = assemble_scan(sweep.log, robot);
+      out.push_back(
+          {cloud.points_base, cloud.viewpoints_base, load_mesh(part.mesh_path), part.seam_points(0.001)});
     }
     return out;
   }();
@@ -236,4 +240,25 @@ void BM_PaperPipeline(benchmark::State& state) {
 BENCHMARK(BM_PaperPipeline)
     ->ArgsProduct({{0, 1}, {0, 1}})
     ->ArgNames({"tee", "reuse"})
+    ->Unit(benchmark::kMillisecond);
+
+// Our localizer on the same scans (with their viewpoints, as the randomized benchmark localizes), given the
+// mesh (Arg 0: the part is prepared anew each time) or a part prepared once (Arg 1: its nearest-sample grid
+// filled by the iterations before, as by a bench worker's earlier trials): the same pose (localizer_test).
+void BM_OursPipeline(benchmark::State& state) {
+  const PaperScan& scan = paper_scan(static_cast<int>(state.range(0)));
+  weldtwin::LocalizeSetting setting;
+  setting.threads = 1;
+  const weldtwin::PreparedPart part(scan.mesh, setting);
+  for (auto _ : state) {
+    const weldtwin::PoseEstimate pose =
+        state.range(1) != 0
+            ? weldtwin::localize(scan.points, part, setting, scan.seam_points, scan.viewpoints)
+            : weldtwin::localize(scan.points, scan.mesh, setting, scan.seam_points, scan.viewpoints);
+    benchmark::DoNotOptimize(pose.rmse_m);
+  }
+}
+BENCHMARK(BM_OursPipeline)
+    ->ArgsProduct({{0, 1}, {0, 1}})
+    ->ArgNames({"tee", "prepared"})
     ->Unit(benchmark::kMillisecond);
