@@ -22,6 +22,7 @@
 #include <optional>
 #include <random>
 #include <thread>
+#include <utility>
 
 #include "app/calibrate_command.hpp"
 #include "app/localize_command.hpp"
@@ -458,6 +459,15 @@ int run_bench(const BenchCommand& cmd_in) {
     throw InputError("--shard K/N needs 0 <= K < N (got " + std::to_string(cmd.shard) + "/" +
                      std::to_string(cmd.shards) + ")");
   if (cmd.out.empty()) throw InputError("--out: the results file (JSON lines) is needed");
+  if (cmd.jobs < 0) throw InputError("--jobs must be at least 1 (or 0: one per core)");
+  if (!(cmd.timeout_s > 0.0)) throw InputError("--timeout-s must be a positive number of seconds");
+  if (!(cmd.replay_step_s > 0.0) || !std::isfinite(cmd.replay_step_s))
+    throw InputError("--replay-step-ms must be a positive number of milliseconds");
+  for (const auto& [name, sigma] : {std::pair{"--mount-error-mm", cmd.mount_error_m},
+                                    {"--mount-error-deg", cmd.mount_error_rad},
+                                    {"--encoder-noise-rad", cmd.encoder_noise_rad}})
+    if (!(sigma >= 0.0) || !std::isfinite(sigma))
+      throw InputError(std::string(name) + " is a standard deviation: it must not be negative");
   for (const std::string& f : cmd.faults)
     if (f.find(':') == std::string::npos || f.find_first_not_of("0123456789") != f.find(':'))
       throw InputError("--fault: '" + f + "' is not INDEX:crash|hang|throw");

@@ -222,8 +222,18 @@ TEST(BenchReport, RefusesMalformedAndMismatchedShards) {
                      d / "err"),
             0)
       << slurp(d / "err");
-  EXPECT_EQ(weldtwin("bench --trials 3 --shard 3/3 --out " + (d / "x.jsonl").string(), d / "err"), 2);
-  EXPECT_NE(slurp(d / "err").find("--shard"), std::string::npos);
+  // Options out of range are refused before any trial runs, in one line naming the option.
+  for (const char* option : {"--shard 3/3", "--jobs -2", "--timeout-s 0", "--timeout-s -1",
+                             "--replay-step-ms 0", "--mount-error-mm -1", "--encoder-noise-rad -0.1"}) {
+    const std::string bad = option;
+    fs::remove(d / "x.jsonl");
+    EXPECT_EQ(weldtwin("bench --trials 3 " + bad + " --out " + (d / "x.jsonl").string(), d / "err"), 2)
+        << bad;
+    const std::string err = slurp(d / "err");
+    EXPECT_NE(err.find(bad.substr(0, bad.find(' '))), std::string::npos) << bad << ": " << err;
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+    EXPECT_FALSE(fs::exists(d / "x.jsonl")) << bad;
+  }
 }
 
 }  // namespace
