@@ -146,9 +146,8 @@ int main(int argc, char** argv) {
       "bench",
       "Randomized-pose benchmark: N random cells (part, pose, yaw, 2-4 clamps, clutter, LiDAR noise), each "
       "swept, localized by ours and the paper's method on the same scan, planned and replayed; one JSON line "
-      "per trial. Trials are seeded by (seed, index): shards run anywhere merge into exactly the lines of "
-      "one "
-      "run (see docs/bench.md)");
+      "per trial. Trials are seeded by (seed, index): shards run on machines of one kind merge into exactly "
+      "the lines of one run (see docs/bench.md)");
   bc->add_option("--trials", bench.trials, "trials in the whole benchmark (all shards)")
       ->capture_default_str();
   bc->add_option("--seed", bench.seed, "benchmark seed")->capture_default_str();
