@@ -2,6 +2,8 @@
 // the closed-form planar step, ICP from perturbed starts), the parts found at the 1 mm / 0.5 deg bar in twin
 // scans and in the independent sample scans, wrong or missing parts refused, and bad input refused cleanly.
 #include "perception/localizer.hpp"
+#include "perception/localize/planar_fit.hpp"
+#include "perception/localize/voxel_grid.hpp"
 
 #include <gtest/gtest.h>
 
@@ -53,9 +55,10 @@ TEST(Localizer, TablePlaneIsRecoveredUnderHalfOutliersAndAFloor) {
   for (int i = 0; i < 30000; ++i)
     pts.emplace_back(-1.1 + 2.2 * u(rng), -1.1 + 2.2 * u(rng), -0.8 + 0.001 * noise(rng));
   for (int i = 0; i < 20000; ++i) pts.emplace_back(-0.1 + 0.8 * u(rng), -0.6 + 1.2 * u(rng), 0.5 * u(rng));
-  Eigen::Vector4d plane;
-  double sigma = 0.0;
-  ASSERT_TRUE(find_table_plane(pts, LocalizeSetting(), plane, sigma));
+  const TablePlane table = find_table_plane(pts);
+  ASSERT_TRUE(table.found);
+  const Eigen::Vector4d& plane = table.plane;
+  const double sigma = table.noise_m;
   EXPECT_LT(std::acos(std::min(1.0, plane.head<3>().dot(n))), deg2rad(0.05));
   EXPECT_NEAR(plane[3], d, 2e-4);
   EXPECT_NEAR(sigma, 0.001, 3e-4);
@@ -86,7 +89,7 @@ TEST(Localizer, RefinementConvergesFromPerturbedStarts) {
   for (int trial = 0; trial < 6; ++trial) {
     LocalizeSetting s;
     s.use_initial_guess = true;
-    s.hypotheses = 1;
+    s.search.hypotheses = 1;
     s.initial_guess = scan.truth * planar_pose(0.01 * u(rng), 0.01 * u(rng), 0.0, deg2rad(5.0) * u(rng));
     const PoseEstimate pose = localize(scan.cloud, mesh, s);
     ASSERT_TRUE(pose.found) << trial << ": " << pose.reason;
@@ -261,7 +264,7 @@ TEST(Localizer, APreparedPartGivesTheMeshsAnswersScanAfterScan) {
   // The two scans are of different layouts: equal answers are not equal inputs.
   EXPECT_GT((warm.T_base_part.translation() - reused.T_base_part.translation()).norm(), 0.01);
   LocalizeSetting coarse;
-  coarse.model_spacing_m = 0.004;
+  coarse.model.spacing_m = 0.004;
   EXPECT_THROW(localize(second.cloud, part, coarse), std::invalid_argument);
 }
 

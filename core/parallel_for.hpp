@@ -1,0 +1,31 @@
+// Runs a loop body over 0..n-1 on a few threads: the one small worker pool of the project's CPU-bound loops.
+#pragma once
+
+#include <algorithm>
+#include <atomic>
+#include <cstddef>
+#include <thread>
+#include <vector>
+
+namespace weldtwin {
+
+/// Calls fn(i) for every i in 0..n-1 on up to `threads` threads (0: all cores), each taking the next index
+/// as it finishes one; with one worker (or n <= 1), in order on the calling thread.
+template <typename Fn>
+void parallel_for(size_t n, int threads, Fn fn) {
+  const size_t workers = std::min<size_t>(
+      n, threads > 0 ? static_cast<size_t>(threads) : std::max(1u, std::thread::hardware_concurrency()));
+  if (workers <= 1) {
+    for (size_t i = 0; i < n; ++i) fn(i);
+    return;
+  }
+  std::atomic<size_t> next{0};
+  std::vector<std::thread> pool;
+  for (size_t w = 0; w < workers; ++w)
+    pool.emplace_back([&] {
+      for (size_t i; (i = next++) < n;) fn(i);
+    });
+  for (auto& t : pool) t.join();
+}
+
+}  // namespace weldtwin

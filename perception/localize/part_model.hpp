@@ -1,0 +1,69 @@
+// Stage 0 of the localizer: a part's mesh made ready to be sought (PreparedPart holds one). Surface samples
+// with outward normals, which of them a scanner above the table can see at all (and from how many of the
+// test directions), how thick the material behind each is, how far each is from a feature edge, the wall
+// samples by height for the Hough vote, the footprint on the table and its outline, and the mesh itself for
+// rays. Everything is in the part's resting frame: the mesh lifted so that its lowest vertex is at z = 0.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "perception/localize/grid2.hpp"
+#include "perception/localize/point_tree.hpp"
+#include "perception/mesh_io.hpp"
+#include "perception/mesh_rays.hpp"
+
+namespace weldtwin {
+
+struct PartModelSetting {
+  double spacing_m = 0.002;          ///< surface sample spacing [m]
+  double min_normal_z = -0.7;        ///< faces pointing further down (the underside) are not sampled
+  double thickness_probe_m = 0.05;   ///< how far behind and in front of a face the next surface is sought [m]
+  double sharp_edge_deg = 30.0;      ///< faces meeting at more than this make a feature edge [deg]
+  double edge_point_step_m = 0.001;  ///< feature edges as points this far apart [m]
+  double height_bin_m = 0.002;       ///< wall samples binned by height for the Hough vote [m]
+  double footprint_cell_m = 0.002;   ///< footprint cell [m]
+  double footprint_margin_m = 0.004;  ///< the footprint grid reaches this far beyond the samples [m]
+  double outline_step_m = 0.001;      ///< outline samples this far apart [m]
+  double outline_corner_m = 0.004;    ///< ... and this far from the outline's corners [m]
+  double outline_inside_m = 0.003;    ///< the part's height at an outline sample is read this far inside [m]
+  double lookup_cell_m = 0.001;       ///< cell of the lazily filled nearest-sample grid [m]
+  double lookup_margin_m = 0.015;     ///< the grid reaches this far beyond the samples [m]
+};
+
+struct PartModel {
+  std::vector<Vec3> pts, nrm;       ///< every face but the underside
+  std::vector<uint8_t> visible;     ///< seen from outside (a scanner above the table can see it at all)
+  std::vector<uint8_t> view_score;  ///< how many of the test directions see it (more: seen more often)
+  std::vector<float> half_thickness, edge_distance;  ///< [m]
+  PointTree tree;
+  std::unique_ptr<MeshRays> rays;             ///< the mesh itself, resting on z = 0
+  Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();  ///< bounding box of the samples
+  double radius = 0.0, height = 0.0;          ///< [m]
+  double spacing_m = 0.002;                   ///< the samples' spacing [m]
+  double height_bin_m = 0.002;
+  std::vector<std::vector<int>> walls_by_height;  ///< visible wall samples (every third) per height bin
+  Grid2 footprint;                                ///< where the part rests on the table (value: lowest top)
+  struct OutlineSample {
+    Eigen::Vector2d at, out;  ///< on the footprint's outline, and the outward normal there
+    double top = 0.0;         ///< height of the part just inside [m]
+  };
+  std::vector<OutlineSample> outline;  ///< every outline step, away from the outline's corners
+
+  /// The sample nearest p, or -1 outside the lookup grid. Answers come from a lazily filled grid (each slot
+  /// holds the sample nearest its centre): ICP asks about the same places again and again. Safe to call from
+  /// several threads: a slot is filled with the same answer by whoever gets there first.
+  int nearest(const Vec3& p);
+
+  double cache_cell = 0.001, cache_margin = 0.015;
+  Vec3 cache_origin = Vec3::Zero();
+  int cx = 0, cy = 0, cz = 0;
+  std::vector<int> cache;
+};
+
+/// Builds the model of `mesh` lifted by -min_z (faces turned outwards first: a CAD file's winding is not to
+/// be trusted), on `threads` threads (0: all cores).
+void build_part_model(const Mesh& mesh, double min_z, const PartModelSetting& setting, int threads,
+                      PartModel& model);
+
+}  // namespace weldtwin

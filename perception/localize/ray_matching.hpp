@@ -1,0 +1,39 @@
+// Matching by rays, for clouds that carry every point's viewpoint: each point's ray, cast from where the
+// LiDAR was against the model at the current pose, is matched with the face it meets. Which face a point
+// belongs to then depends on where the sensor looked, never on where the range noise threw the point, so
+// the two sides of a thin wall (a 3.2 mm tube wall under 2 mm noise) and a plate's low walls next to the
+// table are told apart exactly.
+#pragma once
+
+#include <vector>
+
+#include "perception/localize/part_model.hpp"
+#include "perception/localize/scene_points.hpp"
+
+namespace weldtwin {
+
+struct RayMatchSetting {
+  double ray_window_m = 0.02;     ///< a ray meeting the model this much before or beyond its range meets
+                                  ///< something else [m]
+  double level_normal_z = 0.95;   ///< faces this level say nothing of (x, y, yaw)
+  double outline_band_m = 0.008;  ///< table-level points this close to the footprint's outline take part [m]
+  double box_margin_m = 0.015;    ///< rays whose points lie this far beyond the model's box are not cast [m]
+  double deep_level_m = 0.004;    ///< points this close to a level face, deep inside it, are not cast [m]
+  double deep_edge_sigmas = 3.0;  ///< deep inside: farther from its edges than this many noise sigmas ...
+  double deep_edge_m = 0.002;     ///< ... plus this [m]
+};
+
+/// The rays that may meet a face that can move (x, y, yaw) at pose P (table frame -> part frame):
+/// table-level points near the footprint's outline (the plate's walls), and the rest unless deep inside a
+/// level face (where no noise can carry a point off it).
+std::vector<ScanPoint> rays_near_pose(const ScenePoints& scene, const std::vector<Vec3>& scan_base,
+                                      const std::vector<Vec3>& viewpoints_base, PartModel& model,
+                                      const Iso3& P, const RayMatchSetting& setting = {});
+
+/// face[i]: the model sample where ray i meets the model at pose P, or -1 where it meets something else,
+/// a level face, a face seen from behind, or lands near a feature edge or the table (within edge_margin_m),
+/// where which face a ray meets changes with the pose itself.
+void match_rays(const std::vector<ScanPoint>& rays, PartModel& model, const Iso3& P, double edge_margin_m,
+                const RayMatchSetting& setting, std::vector<int>& face);
+
+}  // namespace weldtwin

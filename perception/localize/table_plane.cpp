@@ -1,0 +1,169 @@
+#include "perception/localize/table_plane.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <unordered_map>
+
+#include <Eigen/Eigenvalues>
+
+// PCL's templates are compiled here from its headers rather than linked from its precompiled libraries: the
+// segmentation library drags in the features library, whose loading cost every process ~0.05 s.
+#define PCL_NO_PRECOMPILE
+#include <pcl/console/print.h>
+#include <pcl/point_types.h>
+#include <pcl/sample_consensus/method_types.h>
+#include <pcl/sample_consensus/model_types.h>
+#include <pcl/segmentation/sac_segmentation.h>
+
+#include "perception/localize/stats.hpp"
+
+namespace weldtwin {
+namespace {
+
+using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+
+pcl::PointXYZ pt(const Vec3& p) {
+  return pcl::PointXYZ(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()));
+}
+
+// A plane found by RANSAC, sized by the area its inliers spread over.
+struct Found {
+  Eigen::Vector4d plane;
+  size_t inliers;  ///< area, in kAreaCell cells
+};
+
+constexpr double kAreaCell = 0.05;      // [m]: a box top near the scanner gathers many points on little area
+constexpr double kAreaCellM2 = 0.0025;  // kAreaCell^2 [m^2]
+constexpr size_t kMinPoints = 100;      // points within reach, below which no table is sought
+constexpr size_t kMinInliers = 50;      // a plane's least inliers (and at least 1/50 of the points)
+constexpr size_t kAreaRatio = 5;        // the table's area is at least 1/5 of the biggest plane's
+
+}  // namespace
+
+TablePlane find_table_plane(const std::vector<Vec3>& scan, const TablePlaneSetting& s) {
+  TablePlane out;
+  out.noise_m = s.min_noise_m;
+  pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);  // failures are reported as values, not on stderr
+  std::vector<const Vec3*> near;
+  near.reserve(scan.size());
+  for (const Vec3& p : scan)
+    if (p.head<2>().norm() <= s.reach_radius_m) near.push_back(&p);
+  if (near.size() < kMinPoints) return out;
+  Cloud::Ptr rest(new Cloud);
+  const size_t stride = std::max<size_t>(1, near.size() / static_cast<size_t>(s.sample_points));
+  for (size_t i = 0; i < near.size(); i += stride) rest->push_back(pt(*near[i]));
+  std::vector<Found> planes;
+  pcl::SACSegmentation<pcl::PointXYZ> seg;
+  seg.setModelType(pcl::SACMODEL_PERPENDICULAR_PLANE);
+  seg.setMethodType(pcl::SAC_RANSAC);
+  seg.setAxis(Eigen::Vector3f::UnitZ());
+  seg.setEpsAngle(static_cast<float>(deg2rad(s.max_tilt_deg)));
+  seg.setDistanceThreshold(s.threshold_m);
+  seg.setMaxIterations(s.ransac_iterations);
+  const size_t total = rest->size();
+  for (int k = 0; k < s.max_planes && rest->size() > kMinInliers; ++k) {
+    pcl::PointIndices inliers;
+    pcl::ModelCoefficients coeff;
+    seg.setInputCloud(rest);
+    seg.segment(inliers, coeff);
+    if (inliers.indices.size() < std::max<size_t>(kMinInliers, total / 50)) break;
+    Eigen::Vector4d p(coeff.values[0], coeff.values[1], coeff.values[2], coeff.values[3]);
+    if (p[2] < 0) p = -p;
+    p /= p.head<3>().norm();
+    // Size by the area the inliers spread over, not by their count.
+    std::unordered_map<long long, char> cells;
+    for (int i : inliers.indices) {
+      const auto& q = (*rest)[static_cast<size_t>(i)];
+      cells[static_cast<long long>(std::floor(q.x / kAreaCell)) * 100000LL +
+            static_cast<long long>(std::floor(q.y / kAreaCell))] = 1;
+    }
+    planes.push_back({p, cells.size()});
+    Cloud::Ptr next(new Cloud);
+    std::vector<char> drop(rest->size(), 0);
+    for (int i : inliers.indices) drop[static_cast<size_t>(i)] = 1;
+    for (size_t i = 0; i < rest->size(); ++i)
+      if (!drop[i]) next->push_back((*rest)[i]);
+    rest = next;
+  }
+  if (planes.empty()) return out;
+  size_t biggest = 0;
+  for (const Found& f : planes) biggest = std::max(biggest, f.inliers);
+  const Found* table = nullptr;
+  for (const Found& f : planes)
+    if (f.inliers * kAreaRatio >= biggest && f.inliers * kAreaCellM2 >= s.min_area_m2 &&
+        (!table || -f.plane[3] > -table->plane[3]))
+      table = &f;
+  if (!table) return out;
+  // Least squares on the points within the band, the band narrowed to the noise as it is learnt. The feet
+  // of everything standing on the table (walls, clamps, the part) reach into any band around it from above
+  // only; the table points next to them (raised cells, and their neighbours) are left out.
+  Eigen::Vector4d p = table->plane;
+  double band = s.threshold_m;
+  double noise = s.min_noise_m;
+  // Cells over the reach (a dense grid: the same cells as floor(x / cell), without hashing).
+  const double rc = s.raised_cell_m;
+  const long half = static_cast<long>(std::ceil(s.reach_radius_m / rc)) + 2, side = 2 * half + 1;
+  std::vector<uint8_t> raised(static_cast<size_t>(side * side));
+  auto cell = [&](double x, double y) {
+    const long ix = static_cast<long>(std::floor(x / rc)) + half,
+               iy = static_cast<long>(std::floor(y / rc)) + half;
+    return static_cast<size_t>(std::clamp(iy, 0L, side - 1) * side + std::clamp(ix, 0L, side - 1));
+  };
+  for (int it = 0; it < s.refit_rounds; ++it) {
+    std::fill(raised.begin(), raised.end(), 0);
+    for (const Vec3* q : near) {
+      const double r = p.head<3>().dot(*q) + p[3];
+      if (r > band && r < s.max_raised_height_m)
+        for (int dx = -1; dx <= 1; ++dx)
+          for (int dy = -1; dy <= 1; ++dy) raised[cell(q->x() + rc * dx, q->y() + rc * dy)] = 1;
+    }
+    Vec3 c = Vec3::Zero();
+    std::vector<Vec3> in;
+    std::vector<double> res;
+    size_t in_band = 0;
+    for (const Vec3* q : near) {
+      const double r = p.head<3>().dot(*q) + p[3];
+      if (std::abs(r) >= band) continue;
+      ++in_band;
+      if (!raised[cell(q->x(), q->y())]) in.push_back(*q), res.push_back(std::abs(r));
+    }
+    // Where things stand everywhere (clutter all over), the mask would leave too little: fall back to the
+    // band.
+    if (in.size() < std::max<size_t>(kMinInliers, in_band / 5)) {
+      in.clear();
+      res.clear();
+      for (const Vec3* q : near) {
+        const double r = p.head<3>().dot(*q) + p[3];
+        if (std::abs(r) < band) in.push_back(*q), res.push_back(std::abs(r));
+      }
+    }
+    if (in.size() < kMinInliers) break;
+    for (const Vec3& q : in) c += q;
+    c /= static_cast<double>(in.size());
+    Mat3 C = Mat3::Zero();
+    for (const Vec3& q : in) C += (q - c) * (q - c).transpose();
+    Eigen::SelfAdjointEigenSolver<Mat3> eig(C);
+    Vec3 n = eig.eigenvectors().col(0);
+    if (n.z() < 0) n = -n;
+    p << n, -n.dot(c);
+    noise = std::max(s.min_noise_m, kMadToSigma * median(res));
+    band = std::max(s.band_sigmas * noise, s.min_band_m);
+  }
+  out.found = true;
+  out.plane = p;
+  out.noise_m = noise;
+  return out;
+}
+
+Iso3 table_frame(const Eigen::Vector4d& plane) {
+  const Vec3 n = plane.head<3>();
+  Mat3 R;
+  R.col(2) = n;
+  R.col(0) = (Vec3::UnitX() - n.x() * n).normalized();
+  R.col(1) = n.cross(R.col(0));
+  const Vec3 origin = -plane[3] * n;  // the plane point closest to the base origin
+  return make_transform(origin, R);   // T_base_table
+}
+
+}  // namespace weldtwin

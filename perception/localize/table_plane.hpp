@@ -1,0 +1,41 @@
+// Stage 1 of the localizer: the table the part rests on. Cascaded RANSAC for near-horizontal planes; of
+// those spread over enough area (box tops are not), the highest (the floor is lower), refined by least
+// squares away from everything standing on it. The spread of its points about it is the range noise sigma
+// that sets every later threshold.
+#pragma once
+
+#include <vector>
+
+#include "core/geometry.hpp"
+
+namespace weldtwin {
+
+struct TablePlaneSetting {
+  double reach_radius_m = 1.2;       ///< the table is sought within this distance of the base axis [m]
+  double threshold_m = 0.006;        ///< RANSAC inlier distance for the table plane [m]
+  double max_tilt_deg = 15.0;        ///< the table plane's normal is within this angle of +z [deg]
+  int sample_points = 40000;         ///< points the RANSAC looks at (evenly thinned)
+  int ransac_iterations = 300;       ///< RANSAC iterations per plane
+  int max_planes = 4;                ///< planes peeled off one after another
+  double min_area_m2 = 0.15;         ///< a plane seen over less area is a box top, not the table [m^2]
+  double min_noise_m = 0.0005;       ///< floor of the estimated range noise [m]
+  int refit_rounds = 4;              ///< least-squares rounds, the band narrowed to the noise learnt
+  double band_sigmas = 3.5;          ///< the refit's band half-width, in noise sigmas
+  double min_band_m = 0.002;         ///< the band's least half-width [m]
+  double raised_cell_m = 0.01;       ///< cells where something stands on the table are left out [m]
+  double max_raised_height_m = 0.5;  ///< points this far above the plane are not the feet of anything [m]
+};
+
+struct TablePlane {
+  bool found = false;
+  Eigen::Vector4d plane = Eigen::Vector4d::Zero();  ///< n.x + d = 0, n up, base frame
+  double noise_m = 0.0;                             ///< robust sigma of the points about it [m]
+};
+
+/// The table in `scan_base` (see the file comment); `found` false if there is none.
+TablePlane find_table_plane(const std::vector<Vec3>& scan_base, const TablePlaneSetting& setting = {});
+
+/// A frame on the plane: z along its normal, origin the plane point nearest the base origin (T_base_table).
+Iso3 table_frame(const Eigen::Vector4d& plane);
+
+}  // namespace weldtwin
