@@ -1,5 +1,6 @@
 #include "app/localize_command.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -36,6 +37,24 @@ nlohmann::json pose_to_json(const PoseEstimate& pose) {
   out["table_plane"] = {pose.table_plane[0], pose.table_plane[1], pose.table_plane[2], pose.table_plane[3]};
   out["object_points"] = pose.object_points;
   out["rays_cast"] = pose.rays_cast;
+  // How far to trust it: a 95 % bound on any seam point's error from the fit, the covariance of the part's
+  // (yaw [rad], x [m], y [m]) in its own frame, and (without viewpoints) the log-likelihood ratio over the
+  // best fit that welds elsewhere.
+  out["seam_error_bound_mm"] = std::isfinite(pose.seam_error_bound_m)
+                                   ? nlohmann::json(1e3 * pose.seam_error_bound_m)
+                                   : nlohmann::json();
+  out["covariance_yaw_x_y"] = nlohmann::json::array();
+  for (int r = 0; r < 3; ++r)
+    out["covariance_yaw_x_y"].push_back(
+        {pose.covariance(r, 0), pose.covariance(r, 1), pose.covariance(r, 2)});
+  if (!pose.rays_cast) {
+    out["margin_llr"] = std::isfinite(pose.margin_llr) ? nlohmann::json(pose.margin_llr) : nlohmann::json();
+    out["rival_offset_mm"] = 1e3 * pose.rival_offset_m;
+    out["wall_offset_mm"] = 1e3 * pose.wall_offset_m;
+    out["level_offset_mm"] = 1e3 * pose.level_offset_m;
+    out["wall_sigma_mm"] = 1e3 * pose.wall_sigma_m;
+    out["wall_side_bias_mm"] = 1e3 * pose.wall_side_bias_m;
+  }
   return out;
 }
 

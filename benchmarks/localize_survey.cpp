@@ -148,6 +148,9 @@ int main(int argc, char** argv) {
   app.add_option("--lidar", lidar_args, "LiDAR setting override name=value (see sim/lidar_model.hpp)")
       ->allow_extra_args(false);
   app.add_flag("--noise-free", noise_free, "exact ranges, no dropouts or mixed pixels (to see biases)");
+  bool no_viewpoints = false;
+  app.add_flag("--no-viewpoints", no_viewpoints,
+               "localize the clouds without their viewpoints, as other tools' clouds");
   app.add_option("cells", cells, "cell YAML files");
   CLI11_PARSE(app, argc, argv);
   std::map<std::string, double> lidar_overrides;
@@ -171,15 +174,16 @@ int main(int argc, char** argv) {
         const SampleTruth truth = read_sample_truth((dir / "truth.json").string());
         const Mesh mesh = load_mesh((dir / "part.stl").string());
         const std::vector<Vec3> cloud = read_cloud((dir / "scan.pcd").string());
-        const PoseEstimate ours = localize(cloud, mesh);
+        const PoseEstimate ours = localize(cloud, mesh, LocalizeSetting(), truth.part.seam_points(0.001));
         const PoseError e =
             pose_error(truth.part, ours.T_base_part, truth.T_base_part, z_symmetry_order(mesh));
         std::printf(
             "sample %-26s %s: seam %.3f mm, rotation %.3f deg, %.2f s [cov %.2f fit %.2f free %.2f amb %.2f "
-            "wall %.2f noise %.2f mm] %s\n",
+            "wall %.2f noise %.2f mm bound %.2f mm side %.1f] %s\n",
             dir.filename().c_str(), ours.found ? "found  " : "refused", 1e3 * e.seam_max_m,
             rad2deg(e.rotation_rad), ours.seconds, ours.coverage, ours.fitness, ours.free_space,
-            ours.ambiguity, ours.wall_residual, 1e3 * ours.noise_m, ours.reason.c_str());
+            ours.ambiguity, ours.wall_residual, 1e3 * ours.noise_m, 1e3 * ours.seam_error_bound_m,
+            ours.margin_llr, ours.reason.c_str());
         if (!no_paper) {
           const PoseEstimate paper = localize_paper(cloud, mesh);
           const PoseError pe =
@@ -240,6 +244,7 @@ int main(int argc, char** argv) {
         }
         t.points = scan.points.size();
         scan_truth_of[i] = scan.truth;
+        if (no_viewpoints) scan.viewpoints.clear();
         t.ours = localize(scan.points, *d.prepared, LocalizeSetting(), d.seam_points, scan.viewpoints);
         t.ours_err = pose_error(d.part, t.ours.T_base_part, scan.truth, d.order);
         if (!no_paper) {
@@ -252,7 +257,7 @@ int main(int argc, char** argv) {
           for (size_t k = 0; k < scan.points.size(); ++k)
             if (scan.labels[k] != static_cast<uint8_t>(Label::kPart)) {
               absent.push_back(scan.points[k]);
-              absent_vp.push_back(scan.viewpoints[k]);
+              if (!scan.viewpoints.empty()) absent_vp.push_back(scan.viewpoints[k]);
             }
           t.impostors.emplace_back(
               "absent", localize(absent, *d.prepared, LocalizeSetting(), d.seam_points, absent_vp));
@@ -278,9 +283,12 @@ int main(int argc, char** argv) {
           std::fprintf(stderr, " [part-frame error %.2f %.2f %.2f mm]", 1e3 * D.translation().x(),
                        1e3 * D.translation().y(), 1e3 * D.translation().z());
         }
-        std::fprintf(stderr, " [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f noise %.2f]", t.ours.coverage,
-                     t.ours.fitness, t.ours.free_space, t.ours.ambiguity, t.ours.wall_residual,
-                     1e3 * t.ours.noise_m);
+        std::fprintf(stderr,
+                     " [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f noise %.2f bound %.2f llr %.1f wsig "
+                     "%.2f bias %.2f]",
+                     t.ours.coverage, t.ours.fitness, t.ours.free_space, t.ours.ambiguity,
+                     t.ours.wall_residual, 1e3 * t.ours.noise_m, 1e3 * t.ours.seam_error_bound_m,
+                     t.ours.margin_llr, 1e3 * t.ours.wall_sigma_m, 1e3 * t.ours.wall_side_bias_m);
         for (const auto& [what, p] : t.impostors)
           std::fprintf(stderr, " | %s %s [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f]",
                        p.found ? "FALSE ACCEPT" : "refused", what.c_str(), p.coverage, p.fitness,

@@ -4,10 +4,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "core/parallel_for.hpp"
 #include "perception/localize/stats.hpp"
+#include "perception/localize/wall_side.hpp"
 
 namespace weldtwin {
 namespace {
@@ -138,15 +140,49 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   std::sort(refined.begin(), refined.end(), better);
   stage("refine");
   if (refined.empty()) return finish("no pose survived the refinement");
-  const Candidate& best = refined.front();
+  Candidate& best = refined.front();
 
-  // 5. The verdict: ambiguity against the best distinct pose that is not the same weld, among the coarse and
-  // the refined poses the free space allows; then the figures against their limits.
+  // 4b. The seams, to say which poses weld the same place and how far a pose may be off there: the part
+  // spec's, or else the whole visible surface of the part (resting frame).
   const Iso3 lift = make_transform(Vec3(0, 0, -min_z), Mat3::Identity());  // mesh frame -> resting frame
-  std::vector<const Candidate*> rivals;
-  for (const Candidate& r : refined) rivals.push_back(&r);
-  for (const Candidate& r : coarse) rivals.push_back(&r);
-  out.ambiguity = ambiguity(best, rivals, model, seam_points, lift, s.score.max_free_space, s.verdict);
+  std::vector<Vec3> seams;
+  for (const Vec3& p : seam_points) seams.push_back(lift * p);
+  if (seams.empty())
+    for (size_t i = 0; i < model.pts.size(); i += static_cast<size_t>(s.verdict.surface_stride))
+      if (model.visible[i]) seams.push_back(model.pts[i]);
+  std::vector<const Candidate*> candidates;
+  for (const Candidate& r : refined) candidates.push_back(&r);
+  for (const Candidate& r : coarse) candidates.push_back(&r);
+  const std::vector<const Candidate*> rivals =
+      distinct_rivals(best, candidates, model, seam_points, lift, s.score.max_free_space, s.verdict);
+
+  // 4c. Without viewpoints: the exact surface decides the wall side, and between the best pose and the
+  // rivals the support cannot rule out.
+  PoseUncertainty uncertainty;
+  out.margin_llr = std::numeric_limits<double>::infinity();
+  if (scene.ray_points.empty()) {
+    std::vector<Iso3> starts{best.P};
+    for (const Eigen::Vector2d& d : model.wall_side_shifts)
+      starts.push_back(planar_pose(d.x(), d.y(), 0.0, 0.0) * best.P);
+    for (const Candidate* r : rivals)
+      if (r->score.support() >= s.verdict.rival_support_share * best.score.support()) starts.push_back(r->P);
+    const WallSideResult side = decide_wall_side(scene.icp_points, model, starts, seams, noise, s.surface,
+                                                 s.uncertainty, s.wall_side, s.threads);
+    best.P = side.best.P;
+    best.score = score_pose(scene, footprint, model, best.P, s.score);
+    uncertainty = side.uncertainty;
+    out.margin_llr = side.margin_llr;
+    out.rival_offset_m = side.rival_offset_m;
+    out.wall_offset_m = side.best.wall_offset_m;
+    out.level_offset_m = side.best.level_offset_m;
+    out.wall_sigma_m = side.best.wall_sigma_m;
+    out.wall_side_bias_m = wall_side_bias_m(model.thin_wall_m, out.wall_sigma_m);
+  } else {
+    uncertainty = pose_uncertainty(best.icp.terms, s.uncertainty);
+    out.ambiguity = ambiguity(best, rivals, model, seam_points, lift, s.score.max_free_space, s.verdict);
+  }
+  out.covariance = uncertainty.covariance;
+  out.seam_error_bound_m = seam_error_bound_m(uncertainty, seams, s.uncertainty) + out.wall_side_bias_m;
 
   out.T_base_part = orthonormalized(scene.T_base_table * best.P.inverse() * lift);
   out.fitness = best.score.region ? static_cast<double>(best.score.inliers) / best.score.region : 0.0;
@@ -159,7 +195,20 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   out.inliers = best.score.inliers;
   out.rays_cast = !scene.ray_points.empty();
   stage("verdict");
-  const std::string reason = verdict_reason(best.score, out.ambiguity, s.score.max_free_space, s.verdict);
+  VerdictInput verdict;
+  verdict.score = best.score;
+  verdict.rays = out.rays_cast;
+  verdict.ambiguity = out.ambiguity;
+  verdict.margin_llr = out.margin_llr;
+  verdict.rival_offset_m = out.rival_offset_m;
+  verdict.seam_error_bound_m = out.seam_error_bound_m;
+  verdict.wall_offset_m = out.wall_offset_m;
+  verdict.level_offset_m = out.level_offset_m;
+  verdict.wall_side_bias_m = out.wall_side_bias_m;
+  verdict.wall_sigma_m = out.wall_sigma_m;
+  verdict.thin_wall_m = model.thin_wall_m;
+  verdict.max_free_space = s.score.max_free_space;
+  const std::string reason = verdict_reason(verdict, s.verdict);
   out.found = reason.empty();
   return finish(reason);
 }

@@ -20,9 +20,12 @@
 #include "perception/localize/planar_icp.hpp"
 #include "perception/localize/pose_score.hpp"
 #include "perception/localize/pose_search.hpp"
+#include "perception/localize/pose_uncertainty.hpp"
 #include "perception/localize/scene_points.hpp"
+#include "perception/localize/surface_icp.hpp"
 #include "perception/localize/table_plane.hpp"
 #include "perception/localize/verdict.hpp"
+#include "perception/localize/wall_side.hpp"
 #include "perception/mesh_io.hpp"
 
 namespace weldtwin {
@@ -35,6 +38,9 @@ struct LocalizeSetting {
   PlanarIcpSetting icp;
   PoseScoreSetting score;
   VerdictSetting verdict;
+  SurfaceIcpSetting surface;
+  PoseUncertaintySetting uncertainty;
+  WallSideSetting wall_side;
   int finalists = 3;                   ///< coarse results refined fully
   double distinct_finalist_m = 0.004;  ///< finalists closer than this ... [m]
   double distinct_finalist_deg = 2.0;  ///< ... and this are one [deg]
@@ -59,6 +65,18 @@ struct PoseEstimate {
   Eigen::Vector4d table_plane = Eigen::Vector4d::Zero();  ///< n.x + d = 0, n up, base frame
   int object_points = 0;                                  ///< points above the table after voxelisation
   bool rays_cast = false;  ///< refined by casting each point's ray from its viewpoint (the cloud had them)
+  double seam_error_bound_m = 0.0;  ///< 95 % bound on any seam point's error from the fit (+inf: unbounded)
+  Mat3 covariance = Mat3::Zero();   ///< of (yaw [rad], x [m], y [m]) of the part, its own frame
+  /// Without viewpoints: the log-likelihood ratio of the pose over the best fit that welds elsewhere (the
+  /// scan on the other side of the walls, a rival of the search); +inf: none was found.
+  double margin_llr = 0.0;
+  double rival_offset_m = 0.0;  ///< how far that fit puts the seams from this pose's [m]
+  double wall_offset_m =
+      0.0;  ///< without viewpoints: median distance of the scan's walls from the model's [m]
+  double level_offset_m = 0.0;  ///< ... and median height of its level faces above the model's [m]
+  double wall_sigma_m = 0.0;    ///< without viewpoints: spread of the residuals on walls [m]
+  /// Without viewpoints: what the bound allows for points taken for the other face of a thin wall [m].
+  double wall_side_bias_m = 0.0;
   double seconds = 0.0;
   std::vector<std::pair<std::string, double>>
       stage_seconds;  ///< model, table, objects, search, refine, verdict

@@ -48,6 +48,8 @@ struct NearestQuery {
   const std::vector<Eigen::Vector3i>* faces;
   Vec3 p;
   double best_sq;
+  Vec3 point = Vec3::Zero();
+  unsigned face = 0;
 };
 
 bool nearest_triangle(RTCPointQueryFunctionArguments* args) {
@@ -59,6 +61,8 @@ bool nearest_triangle(RTCPointQueryFunctionArguments* args) {
   const double d2 = (c - q->p).squaredNorm();
   if (d2 >= q->best_sq) return false;
   q->best_sq = d2;
+  q->point = c;
+  q->face = args->primID;
   args->query->radius = static_cast<float>(std::sqrt(d2));
   return true;
 }
@@ -122,6 +126,25 @@ double MeshRays::distance(const Vec3& p, double max_m) const {
   rtcPointQuery(impl_->scene, &query, &ctx, nearest_triangle, &nearest);
   return nearest.best_sq < max_m * max_m ? std::sqrt(nearest.best_sq)
                                          : std::numeric_limits<double>::infinity();
+}
+
+bool MeshRays::closest(const Vec3& p, double max_m, Vec3& point, Vec3& face_normal) const {
+  RTCPointQuery query{};
+  query.x = static_cast<float>(p.x());
+  query.y = static_cast<float>(p.y());
+  query.z = static_cast<float>(p.z());
+  query.radius = static_cast<float>(max_m);
+  RTCPointQueryContext ctx;
+  rtcInitPointQueryContext(&ctx);
+  NearestQuery nearest{&impl_->vertices, &impl_->faces, p, max_m * max_m};
+  rtcPointQuery(impl_->scene, &query, &ctx, nearest_triangle, &nearest);
+  if (nearest.best_sq >= max_m * max_m) return false;
+  point = nearest.point;
+  const Eigen::Vector3i& f = impl_->faces[nearest.face];
+  const Vec3 &a = impl_->vertices[static_cast<size_t>(f[0])], &b = impl_->vertices[static_cast<size_t>(f[1])],
+             &c = impl_->vertices[static_cast<size_t>(f[2])];
+  face_normal = (b - a).cross(c - a).normalized();
+  return true;
 }
 
 bool MeshRays::inside(const Vec3& p) const {

@@ -20,6 +20,9 @@ class MeshRays {
   double hit(const Vec3& o, const Vec3& d, double t_min = 1e-5, double t_max = 1e30) const;
   /// Distance from `p` to the nearest point of the surface, or +inf when nothing is within `max_m`.
   double distance(const Vec3& p, double max_m) const;
+  /// The surface point nearest `p` within `max_m`: false if there is none; else `point` and the outward
+  /// normal of its face (the mesh's winding) are set.
+  bool closest(const Vec3& p, double max_m, Vec3& point, Vec3& face_normal) const;
   /// Whether `p` is inside the (closed) mesh: the parity of the surface crossings along three rays, by
   /// majority.
   bool inside(const Vec3& p) const;

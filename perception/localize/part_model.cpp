@@ -168,6 +168,51 @@ void build_part_model(const Mesh& mesh, double min_z, const PartModelSetting& s,
       model.walls_by_height[static_cast<size_t>(std::max(0.0, model.pts[k].z()) / s.height_bin_m)].push_back(
           static_cast<int>(k));
 
+  // Thin walls: how thick, and the directions across them (at most wall_directions, the most common first).
+  {
+    constexpr int kBins = 36;  // 5 deg bins of the wall normal's direction, modulo 180 deg
+    std::vector<double> thick;
+    std::vector<int> hist(kBins, 0);
+    std::vector<Eigen::Vector2d> doubled(kBins, Eigen::Vector2d::Zero());  // mean direction per bin
+    size_t walls = 0;
+    for (size_t k = 0; k < n; ++k) {
+      if (!model.visible[k] || std::abs(model.nrm[k].z()) >= kWallNormalZ) continue;
+      ++walls;
+      const double t = 2.0 * model.half_thickness[k];
+      if (t >= s.thin_wall_max_m) continue;
+      thick.push_back(t);
+      double a = std::atan2(model.nrm[k].y(), model.nrm[k].x());
+      if (a < 0) a += kPi;
+      const size_t bin = static_cast<size_t>(std::min(kBins - 1, static_cast<int>(a / kPi * kBins)));
+      ++hist[bin];
+      doubled[bin] += Eigen::Vector2d(std::cos(2 * a), std::sin(2 * a));
+    }
+    if (walls > 0 &&
+        static_cast<double>(thick.size()) >= s.thin_wall_min_share * static_cast<double>(walls)) {
+      std::nth_element(thick.begin(), thick.begin() + static_cast<long>(thick.size() / 2), thick.end());
+      model.thin_wall_m = thick[thick.size() / 2];
+      std::vector<int> chosen;
+      for (int pick = 0; pick < s.wall_directions; ++pick) {
+        int best = -1;
+        for (int b = 0; b < kBins; ++b) {
+          bool far = hist[static_cast<size_t>(b)] > 0;
+          for (int c : chosen) {
+            const double gap = std::abs(b - c) * 180.0 / kBins;
+            far = far && std::min(gap, 180.0 - gap) >= s.wall_direction_gap_deg;
+          }
+          if (far && (best < 0 || hist[static_cast<size_t>(b)] > hist[static_cast<size_t>(best)])) best = b;
+        }
+        if (best < 0) break;
+        chosen.push_back(best);
+        const Eigen::Vector2d& m2 = doubled[static_cast<size_t>(best)];
+        const double a = 0.5 * std::atan2(m2.y(), m2.x());
+        const Eigen::Vector2d d(std::cos(a), std::sin(a));
+        model.wall_side_shifts.push_back(model.thin_wall_m * d);
+        model.wall_side_shifts.push_back(-model.thin_wall_m * d);
+      }
+    }
+  }
+
   // Footprint: the underside faces resting on the table.
   model.footprint.reset(model.lo.head<2>() - Eigen::Vector2d::Constant(s.footprint_margin_m),
                         model.hi.head<2>() + Eigen::Vector2d::Constant(s.footprint_margin_m),

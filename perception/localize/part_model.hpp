@@ -23,12 +23,16 @@ struct PartModelSetting {
   double edge_point_step_m = 0.001;  ///< feature edges as points this far apart [m]
   double height_bin_m = 0.002;       ///< wall samples binned by height for the Hough vote [m]
   double footprint_cell_m = 0.002;   ///< footprint cell [m]
-  double footprint_margin_m = 0.004;  ///< the footprint grid reaches this far beyond the samples [m]
-  double outline_step_m = 0.001;      ///< outline samples this far apart [m]
-  double outline_corner_m = 0.004;    ///< ... and this far from the outline's corners [m]
-  double outline_inside_m = 0.003;    ///< the part's height at an outline sample is read this far inside [m]
-  double lookup_cell_m = 0.001;       ///< cell of the lazily filled nearest-sample grid [m]
-  double lookup_margin_m = 0.015;     ///< the grid reaches this far beyond the samples [m]
+  double footprint_margin_m = 0.004;   ///< the footprint grid reaches this far beyond the samples [m]
+  double outline_step_m = 0.001;       ///< outline samples this far apart [m]
+  double outline_corner_m = 0.004;     ///< ... and this far from the outline's corners [m]
+  double outline_inside_m = 0.003;     ///< the part's height at an outline sample is read this far inside [m]
+  double lookup_cell_m = 0.001;        ///< cell of the lazily filled nearest-sample grid [m]
+  double lookup_margin_m = 0.015;      ///< the grid reaches this far beyond the samples [m]
+  double thin_wall_max_m = 0.012;      ///< walls thinner than this can be mistaken for their other side [m]
+  double thin_wall_min_share = 0.05;   ///< ... when at least this share of the wall samples is that thin
+  int wall_directions = 4;             ///< at most this many directions across thin walls are tried
+  double wall_direction_gap_deg = 40;  ///< ... at least this far apart [deg]
 };
 
 struct PartModel {
@@ -49,6 +53,10 @@ struct PartModel {
     double top = 0.0;         ///< height of the part just inside [m]
   };
   std::vector<OutlineSample> outline;  ///< every outline step, away from the outline's corners
+  double thin_wall_m = 0.0;            ///< median thickness of the thin walls (0: none) [m]
+  /// Moves of the part (its frame, x and y) by one thin wall's thickness across its walls: where a scan
+  /// without viewpoints may fit the other side of every wall as well as the right one.
+  std::vector<Eigen::Vector2d> wall_side_shifts;
 
   /// The sample nearest p, or -1 outside the lookup grid. Answers come from a lazily filled grid (each slot
   /// holds the sample nearest its centre): ICP asks about the same places again and again. Safe to call from

@@ -127,6 +127,7 @@ IcpResult planar_icp(const std::vector<ScanPoint>& scan, const ScenePoints& c, P
         A += J * J.transpose();
         b -= J * r;
         ++used;
+        if (fine && it == iterations - 1) out.terms.push_back({J, r, 1.0, m.pts[kk]});
       }
     }
     for (const ScanPoint& sp : scan) {
@@ -157,6 +158,7 @@ IcpResult planar_icp(const std::vector<ScanPoint>& scan, const ScenePoints& c, P
       A += J * J.transpose();
       b -= J * r;
       ++used;
+      if (fine && it == iterations - 1) out.terms.push_back({J, r, 1.0, m.pts[kk]});
     }
     // Without rays, the outline of a part too low to be told from the table is read from the height step;
     // with them, the plate's own walls take part (the rays tell them from the table).

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "perception/localize/part_model.hpp"
+#include "perception/localize/pose_uncertainty.hpp"
 #include "perception/localize/ray_matching.hpp"
 #include "perception/localize/scene_points.hpp"
 
@@ -43,6 +44,7 @@ struct IcpResult {
   Iso3 P = Iso3::Identity();  ///< table frame -> part frame
   int iterations = 0;
   bool converged = false;
+  std::vector<ResidualTerm> terms;  ///< the last iteration's residuals (fine refinement only)
 };
 
 /// The points around a pose that can move (x, y, yaw): those nearest a face that is not level (a level

@@ -18,7 +18,7 @@ Score score_pose(const ScenePoints& c, const Grid2& footprint, PartModel& m, con
     if (q.z() < lim.height_cut_m) continue;
     const Vec3 p = P * q;
     if (p.x() < m.lo.x() - margin || p.y() < m.lo.y() - margin || p.x() > m.hi.x() + margin ||
-        p.y() > m.hi.y() + margin || p.z() > m.hi.z() + margin)
+        p.y() > m.hi.y() + margin || p.z() > m.hi.z() + s.above_top_m)
       continue;
     ++out.region;
     const int k = m.nearest(p);

@@ -12,12 +12,13 @@
 namespace weldtwin {
 
 struct PoseScoreSetting {
-  double box_margin_m = 0.005;   ///< the model's region: its box grown by this [m]
-  double wall_normal_z = 0.5;    ///< samples with |n.z| below this are walls
-  double wall_reach_m = 0.01;    ///< scan points within this of a wall sample count for its residual [m]
-  double inlier_sigmas = 2.5;    ///< a residual within this many noise sigmas explains a point ...
-  double min_inlier_m = 0.0015;  ///< ... and at least within this [m]
-  int coverage_stride = 3;       ///< every this many model samples are looked at for coverage
+  double box_margin_m = 0.005;  ///< the model's region: its box grown by this [m]
+  double above_top_m = 0.05;   ///< ... and this far above its top: a part taller than the model is not it [m]
+  double wall_normal_z = 0.5;  ///< samples with |n.z| below this are walls
+  double wall_reach_m = 0.01;  ///< scan points within this of a wall sample count for its residual [m]
+  double inlier_sigmas = 2.5;  ///< a residual within this many noise sigmas explains a point ...
+  double min_inlier_m = 0.0015;         ///< ... and at least within this [m]
+  int coverage_stride = 3;              ///< every this many model samples are looked at for coverage
   double coverage_min_normal_z = -0.2;  ///< samples facing further down are not expected to be seen
   double coverage_sigmas = 2.0;         ///< a sample is seen with a scan point within this many sigmas ...
   double min_coverage_reach_m = 0.004;  ///< ... and at least within this [m]

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 namespace weldtwin {
 namespace {
@@ -35,10 +36,11 @@ bool same_seams(const std::vector<Vec3>& seam, const Iso3& D, const VerdictSetti
 
 }  // namespace
 
-double ambiguity(const Candidate& best, const std::vector<const Candidate*>& rivals, PartModel& model,
-                 const std::vector<Vec3>& seam_points, const Iso3& lift, double max_free_space,
-                 const VerdictSetting& s) {
-  double out = 0.0;
+std::vector<const Candidate*> distinct_rivals(const Candidate& best,
+                                              const std::vector<const Candidate*>& rivals, PartModel& model,
+                                              const std::vector<Vec3>& seam_points, const Iso3& lift,
+                                              double max_free_space, const VerdictSetting& s) {
+  std::vector<const Candidate*> out;
   for (const Candidate* r : rivals) {
     if (r == &best || r->score.free_space > max_free_space) continue;
     const Iso3 D = best.P * r->P.inverse();  // part frame to part frame
@@ -48,20 +50,75 @@ double ambiguity(const Candidate& best, const std::vector<const Candidate*>& riv
       continue;
     if (self_similar(model, D, s)) continue;
     if (same_seams(seam_points, lift.inverse() * D * lift, s)) continue;
-    out = std::max(out, r->score.support() / std::max(1e-9, best.score.support()));
+    out.push_back(r);
   }
   return out;
 }
 
-std::string verdict_reason(const Score& best, double ambiguity, double max_free_space,
-                           const VerdictSetting& s) {
+double ambiguity(const Candidate& best, const std::vector<const Candidate*>& rivals, PartModel& model,
+                 const std::vector<Vec3>& seam_points, const Iso3& lift, double max_free_space,
+                 const VerdictSetting& s) {
+  double out = 0.0;
+  for (const Candidate* r : distinct_rivals(best, rivals, model, seam_points, lift, max_free_space, s))
+    out = std::max(out, r->score.support() / std::max(1e-9, best.score.support()));
+  return out;
+}
+
+std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
+  const Score& best = in.score;
   const double fitness = best.region ? static_cast<double>(best.inliers) / best.region : 0.0;
-  if (best.free_space > max_free_space) return "the table is seen where the best match would stand";
+  const double tol = s.weld_tolerance_m;
+  char buf[400];
+  if (best.free_space > in.max_free_space) return "the table is seen where the best match would stand";
   if (best.coverage < s.min_coverage) return "the best match covers too little of the model";
   if (fitness < s.min_fitness) return "the part fits the scan poorly";
-  if (best.wall_residual > s.max_wall_residual)
+  // With rays, the walls' residual against the table's noise tells a different shape; without them the
+  // scan's own surfaces (neighbourhood centroids, where the noise averages out) against the model's.
+  if (in.rays && best.wall_residual > s.max_wall_residual)
     return "the part's walls fit the scan worse than the noise explains: a different part?";
-  if (ambiguity >= s.ambiguity_ratio) return "ambiguous: a different pose fits almost as well";
+  if (!in.rays && in.wall_offset_m > tol) {
+    std::snprintf(
+        buf, sizeof buf,
+        "the scan's walls lie %.1f mm from the model's (median; tolerance %.1f mm): a different part, "
+        "or the part differs from its CAD: check the part and its model",
+        1e3 * in.wall_offset_m, 1e3 * tol);
+    return buf;
+  }
+  if (!in.rays && std::abs(in.level_offset_m) > tol) {
+    std::snprintf(
+        buf, sizeof buf,
+        "the part's level faces lie %.1f mm %s the model's (median; tolerance %.1f mm): a different "
+        "part, or the part differs from its CAD: check the part and its model",
+        1e3 * std::abs(in.level_offset_m), in.level_offset_m > 0 ? "above" : "below", 1e3 * tol);
+    return buf;
+  }
+  if (in.ambiguity >= s.ambiguity_ratio) return "ambiguous: a different pose fits almost as well";
+  if (in.margin_llr < s.min_margin_llr) {
+    std::snprintf(buf, sizeof buf,
+                  "ambiguous: a pose that puts the seams %.1f mm away fits almost as well (likelihood ratio "
+                  "e^%.1f; e^%.0f needed), as when the scan may lie on either side of a wall: sweep again so "
+                  "that the LiDAR sees the part's walls from more sides",
+                  1e3 * in.rival_offset_m, in.margin_llr, s.min_margin_llr);
+    return buf;
+  }
+  if (!(in.seam_error_bound_m <= tol) && in.wall_side_bias_m > 0.5 * in.seam_error_bound_m) {
+    std::snprintf(
+        buf, sizeof buf,
+        "the pose is uncertain by up to %.2f mm at the seams (95 %%; tolerance %.2f mm): the points "
+        "spread %.1f mm across walls %.1f mm thick and the cloud carries no viewpoints, so a point's "
+        "side of a wall is a guess: give the cloud with its viewpoints (PCD fields vp_x vp_y vp_z), "
+        "or sweep so that the LiDAR sees the walls more squarely",
+        1e3 * in.seam_error_bound_m, 1e3 * tol, 1e3 * in.wall_sigma_m, 1e3 * in.thin_wall_m);
+    return buf;
+  }
+  if (!(in.seam_error_bound_m <= tol)) {
+    std::snprintf(
+        buf, sizeof buf,
+        "the pose is uncertain by up to %.2f mm at the seams (95 %%; tolerance %.2f mm): sweep again "
+        "so that the LiDAR sees more of the part's walls",
+        1e3 * in.seam_error_bound_m, 1e3 * tol);
+    return buf;
+  }
   return "";
 }
 

@@ -13,16 +13,20 @@
 namespace weldtwin {
 
 struct VerdictSetting {
-  double min_coverage = 0.45;       ///< share of the model's visible samples with scan points nearby
-  double min_fitness = 0.55;        ///< share of the scan points in the model's region that it explains
-  double max_wall_residual = 0.58;  ///< median |residual| on the walls, in table noise sigmas (a different
-                                    ///< shape fits the walls worse than the noise explains)
-  double ambiguity_ratio = 0.85;    ///< a distinct pose scoring this close to the best is ambiguous
-  double same_pose_m = 0.008;       ///< poses closer than this ... [m]
-  double same_pose_deg = 5.0;       ///< ... and this are one minimum, not rivals [deg]
-  int symmetry_stride = 7;          ///< every this many model samples test a symmetry
-  double symmetry_m = 0.0015;       ///< the model maps onto itself within this mean distance [m]
-  double same_seam_m = 0.0015;      ///< every seam point maps within this of a seam point [m]
+  double min_coverage = 0.45;        ///< share of the model's visible samples with scan points nearby
+  double min_fitness = 0.55;         ///< share of the scan points in the model's region that it explains
+  double max_wall_residual = 0.58;   ///< median |residual| on the walls, in table noise sigmas (a different
+                                     ///< shape fits the walls worse than the noise explains)
+  double ambiguity_ratio = 0.85;     ///< a distinct pose scoring this close to the best is ambiguous
+  double same_pose_m = 0.008;        ///< poses closer than this ... [m]
+  double same_pose_deg = 5.0;        ///< ... and this are one minimum, not rivals [deg]
+  int symmetry_stride = 7;           ///< every this many model samples test a symmetry
+  double symmetry_m = 0.0015;        ///< the model maps onto itself within this mean distance [m]
+  double same_seam_m = 0.0015;       ///< every seam point maps within this of a seam point [m]
+  double weld_tolerance_m = 0.001;   ///< a pose is accepted when its seam error bound is within this [m]
+  double min_margin_llr = 15.0;      ///< a fit that welds elsewhere must be this much less likely (nats)
+  double rival_support_share = 0.5;  ///< rivals of at least this share of the best's support are refitted
+  int surface_stride = 7;            ///< without seams, every this many visible samples stand for them
 };
 
 /// A refined pose and its figures.
@@ -32,14 +36,37 @@ struct Candidate {
   Score score;
 };
 
+/// The rivals that weld elsewhere: not `best` itself, allowed by the free space, not the same pose found
+/// again (or a shallower minimum next to it), not mapped onto it by the part's symmetry or its seams.
+/// `lift` maps the mesh frame into the resting frame; `seam_points` are in the mesh frame.
+std::vector<const Candidate*> distinct_rivals(const Candidate& best,
+                                              const std::vector<const Candidate*>& rivals, PartModel& model,
+                                              const std::vector<Vec3>& seam_points, const Iso3& lift,
+                                              double max_free_space, const VerdictSetting& setting = {});
+
 /// The best distinct rival's support over the best's (0: none). `lift` maps the mesh frame into the resting
 /// frame; `seam_points` are in the mesh frame.
 double ambiguity(const Candidate& best, const std::vector<const Candidate*>& rivals, PartModel& model,
                  const std::vector<Vec3>& seam_points, const Iso3& lift, double max_free_space,
                  const VerdictSetting& setting = {});
 
-/// Why the figures refuse the pose, or "" when they accept it.
-std::string verdict_reason(const Score& best, double ambiguity, double max_free_space,
-                           const VerdictSetting& setting = {});
+/// What the verdict weighs.
+struct VerdictInput {
+  Score score;                  ///< of the best pose
+  bool rays = false;            ///< refined by rays cast from the points' viewpoints
+  double ambiguity = 0.0;       ///< with rays: the best distinct rival's support over the best's
+  double margin_llr = 0.0;      ///< without rays: log-likelihood ratio over the best fit welding elsewhere
+  double rival_offset_m = 0.0;  ///< ... and how far that fit puts the seams [m]
+  double seam_error_bound_m = 0.0;  ///< 95 % bound on the seam error from the fit [m]
+  double wall_offset_m = 0.0;     ///< without rays: median distance of the scan's walls from the model's [m]
+  double level_offset_m = 0.0;    ///< ... and median height of its level faces above the model's [m]
+  double wall_side_bias_m = 0.0;  ///< the part of the bound that allows for points on the wrong face [m]
+  double wall_sigma_m = 0.0;      ///< the spread of the scan's points across walls [m]
+  double thin_wall_m = 0.0;       ///< the part's thin walls' thickness [m]
+  double max_free_space = 0.02;
+};
+
+/// Why the figures refuse the pose, or "" when they accept it: in words a person can act on.
+std::string verdict_reason(const VerdictInput& in, const VerdictSetting& setting = {});
 
 }  // namespace weldtwin

@@ -51,8 +51,9 @@ struct Recorded {
   Iso3 localize_log(const ScanLog& log) const {
     LocalizeSetting setting;
     setting.threads = 1;
+    const AssembledCloud a = assemble_scan(log, cell.robot);
     const PoseEstimate p =
-        localize(assemble_scan(log, cell.robot).points_base, mesh, setting, cell.part.seam_points(0.001));
+        localize(a.points_base, mesh, setting, cell.part.seam_points(0.001), a.viewpoints_base);
     EXPECT_TRUE(p.found) << p.reason;
     return p.T_base_part;
   }

@@ -1,0 +1,56 @@
+// How far to trust a planar pose: the covariance of (yaw, x, y) from the final fit's residuals, and the bound
+// it puts on how far any seam point may be from where the pose puts it.
+//
+// The covariance is the cluster-robust sandwich of an M-estimator (White 1980; Liang and Zeger 1986):
+// Cov = H^-1 (sum_c g_c g_c^T) H^-1, H = sum_i w_i J_i J_i^T, g_c = sum_{i in c} w_i J_i r_i over the points
+// of each spatial cell c. Neighbouring points share their errors (voxels, smoothing, a warped stretch of
+// wall), and the residuals say how large those errors really are: a miscalibrated or deformed scan fits worse
+// and gets a wider bound, where the noise alone would promise more than the scan can keep.
+#pragma once
+
+#include <vector>
+
+#include "core/geometry.hpp"
+
+namespace weldtwin {
+
+/// One residual of a planar fit: r (metres) and its derivative J w.r.t. (yaw, x, y) of the part, its
+/// robust weight, and where it is (part frame) for the clustering.
+struct ResidualTerm {
+  Vec3 J = Vec3::Zero();
+  double r = 0.0;
+  double w = 1.0;
+  Vec3 at = Vec3::Zero();
+};
+
+struct PoseUncertaintySetting {
+  double cluster_cell_m = 0.01;  ///< residuals in one cell of this edge share their errors [m]
+  double chi2_3dof = 7.815;      ///< the 95 % quantile of chi-square with 3 degrees of freedom
+};
+
+struct PoseUncertainty {
+  bool ok = false;                 ///< false: too few residuals, or some motion they do not constrain
+  Mat3 covariance = Mat3::Zero();  ///< of (yaw [rad], x [m], y [m]), part-frame perturbation
+  int clusters = 0;
+  double residual_sigma_m = 0.0;  ///< weighted RMS of the residuals [m]
+  /// How much wider the sandwich is than independent residuals of that RMS would make it (the largest
+  /// eigenvalue of Cov_model^-1 Cov): >1 where neighbouring errors are shared.
+  double design_effect = 1.0;
+};
+
+/// The covariance of the fit whose final residuals are `terms`.
+PoseUncertainty pose_uncertainty(const std::vector<ResidualTerm>& terms,
+                                 const PoseUncertaintySetting& setting = {});
+
+/// The largest displacement of any of `points` (part frame) within the 95 % confidence region of `u`: a
+/// bound on the seam error when the points are the seams [m]. +inf when `u` is not ok.
+double seam_error_bound_m(const PoseUncertainty& u, const std::vector<Vec3>& points,
+                          const PoseUncertaintySetting& setting = {});
+
+/// What a fit without viewpoints may be off by across walls of thickness `t_m` whose points spread by
+/// `sigma_m`: a point thrown beyond the wall's middle is taken for the other face (share q = Phi(-t / 2
+/// sigma)) and moves the fitted face by about t; the two faces' shares may act the same way: 2 q t [m].
+/// 0 for no thin walls.
+double wall_side_bias_m(double t_m, double sigma_m);
+
+}  // namespace weldtwin
