@@ -208,9 +208,93 @@ def cal_box():
                "250 x 150 x 100 mm box: the known object of the LiDAR mount calibration (weldtwin calibrate).")
 
 
+def offset_tube_on_plate():
+    """A tube standing off-centre on its plate: the plate's outline tells its yaw, not the tube's."""
+    px, py, plate_t = 0.100, 0.070, 0.010
+    cx, cy = 0.035, -0.020
+    tube_half, wall, height = 0.0254, 0.0032, 0.150
+    tris = box(-px, -py, 0, px, py, plate_t)
+    tris += hollow_prism(square(cx, cy, tube_half), square(cx, cy, tube_half - wall), plate_t, plate_t + height)
+    h, z = tube_half, plate_t
+    x0, x1, y0, y1 = cx - h, cx + h, cy - h, cy + h
+    seams = [
+        dict(name="front", start=(x0, y0, z), end=(x1, y0, z), normal=(0, 0, 1), wall_normal=(0, -1, 0)),
+        dict(name="right", start=(x1, y0, z), end=(x1, y1, z), normal=(0, 0, 1), wall_normal=(1, 0, 0)),
+        dict(name="back", start=(x1, y1, z), end=(x0, y1, z), normal=(0, 0, 1), wall_normal=(0, 1, 0)),
+        dict(name="left", start=(x0, y1, z), end=(x0, y0, z), normal=(0, 0, 1), wall_normal=(-1, 0, 0)),
+    ]
+    fp = [(-px, -py), (px, -py), (px, py), (-px, py)]
+    d = 1 / math.sqrt(2)
+    sites = [((px - 0.01, py - 0.01, plate_t), (d, d)), ((-px + 0.01, py - 0.01, plate_t), (-d, d)),
+             ((-px + 0.01, -py + 0.01, plate_t), (-d, -d)), ((px - 0.01, -py + 0.01, plate_t), (d, -d))]
+    write_stl(os.path.join(OUT, "offset_tube_on_plate.stl"), tris, "weldtwin offset_tube_on_plate")
+    write_spec("offset_tube_on_plate", seams, sites, fp, plate_t + height,
+               "2 in square tube (3.2 mm wall, 150 mm) standing off-centre (35, -20 mm) on a 200 x 140 x 10 mm "
+               "plate; 4 fillet seams.")
+
+
+def rect_tee_flat():
+    """A tee of rectangular tubes lying flat on the table: a 100 x 50 mm main tube, a 60 x 40 mm branch."""
+    main_w, main_h, main_len, wall = 0.050, 0.050, 0.300, 0.003
+    br_w, br_h, br_len = 0.030, 0.040, 0.160
+    yz_outer = [(-main_w, 0), (main_w, 0), (main_w, main_h), (-main_w, main_h)]
+    yz_inner = [(-main_w + wall, wall), (main_w - wall, wall), (main_w - wall, main_h - wall), (-main_w + wall, main_h - wall)]
+    main = transform(hollow_prism(yz_outer, yz_inner, -main_len / 2, main_len / 2), lambda v: (v[2], v[0], v[1]))
+    zx_outer = [(0, -br_w), (br_h, -br_w), (br_h, br_w), (0, br_w)]
+    zx_inner = [(wall, -br_w + wall), (br_h - wall, -br_w + wall), (br_h - wall, br_w - wall), (wall, br_w - wall)]
+    branch = transform(hollow_prism(zx_outer, zx_inner, main_w, main_w + br_len), lambda v: (v[1], v[2], v[0]))
+    tris = main + branch
+    y = main_w
+    seams = [
+        dict(name="top", start=(-br_w, y, br_h), end=(br_w, y, br_h), normal=(0, 1, 0), wall_normal=(0, 0, 1)),
+        dict(name="right", start=(br_w, y, br_h), end=(br_w, y, 0.008), normal=(0, 1, 0), wall_normal=(1, 0, 0),
+             travel_deg=30),
+        dict(name="left", start=(-br_w, y, br_h), end=(-br_w, y, 0.008), normal=(0, 1, 0), wall_normal=(-1, 0, 0),
+             travel_deg=30),
+    ]
+    fp = [(-main_len / 2, -main_w), (main_len / 2, -main_w), (main_len / 2, main_w), (br_w, main_w),
+          (br_w, main_w + br_len), (-br_w, main_w + br_len), (-br_w, main_w), (-main_len / 2, main_w)]
+    sites = [((0.12, 0, main_h), (0, -1.0)), ((-0.12, 0, main_h), (0, -1.0)), ((0.135, 0, main_h), (1.0, 0)),
+             ((-0.135, 0, main_h), (-1.0, 0)), ((0, main_w + br_len - 0.015, br_h), (0, 1.0))]
+    write_stl(os.path.join(OUT, "rect_tee_flat.stl"), tris, "weldtwin rect_tee_flat")
+    write_spec("rect_tee_flat", seams, sites, fp, main_h,
+               "100 x 50 mm rectangular tube (3 mm wall, 300 mm) lying flat, with a 60 x 40 mm branch (160 mm) "
+               "butted to its side; fillet seams of the joint.")
+
+
+def paper_tee():
+    """The seed paper's tee in inches: a 2 in square tube (1/8 in wall, 10.25 in) lying on the table with a
+    2 in square stem (8.5 in) standing on its top face, 3 in from one end. The frame: x along the tube, the
+    stem's axis at x = y = 0, z = 0 the face that rests on the table."""
+    inch = 0.0254
+    half, wall = 1.0 * inch, 0.125 * inch
+    x0, x1, stem = -3.0 * inch, 7.25 * inch, 8.5 * inch
+    yz_outer = [(-half, 0), (half, 0), (half, 2 * half), (-half, 2 * half)]
+    yz_inner = [(-half + wall, wall), (half - wall, wall), (half - wall, 2 * half - wall), (-half + wall, 2 * half - wall)]
+    main = transform(hollow_prism(yz_outer, yz_inner, x0, x1), lambda v: (v[2], v[0], v[1]))
+    top = 2 * half
+    tris = main + hollow_prism(square(0, 0, half), square(0, 0, half - wall), top, top + stem)
+    h = half
+    seams = [
+        dict(name="front", start=(-h, -h, top), end=(h, -h, top), normal=(0, 0, 1), wall_normal=(0, -1, 0)),
+        dict(name="right", start=(h, -h, top), end=(h, h, top), normal=(0, 0, 1), wall_normal=(1, 0, 0)),
+        dict(name="back", start=(h, h, top), end=(-h, h, top), normal=(0, 0, 1), wall_normal=(0, 1, 0)),
+        dict(name="left", start=(-h, h, top), end=(-h, -h, top), normal=(0, 0, 1), wall_normal=(-1, 0, 0)),
+    ]
+    fp = [(x0, -half), (x1, -half), (x1, half), (x0, half)]
+    sites = [((x1 - 0.02, 0, top), (1.0, 0)), ((x0 + 0.012, 0, top), (-1.0, 0)), ((0.12, 0, top), (0, -1.0))]
+    write_stl(os.path.join(OUT, "paper_tee.stl"), tris, "weldtwin paper_tee")
+    write_spec("paper_tee", seams, sites, fp, top + stem,
+               "the seed paper's tee: 2 in square tubes (1/8 in wall), 10.25 in lying, 8.5 in standing on it 3 in "
+               "from one end; 4 fillet seams round the stem's foot.")
+
+
 if __name__ == "__main__":
     os.makedirs(OUT, exist_ok=True)
     tube_on_plate()
     round_on_plate()
     tube_tee()
     cal_box()
+    offset_tube_on_plate()
+    rect_tee_flat()
+    paper_tee()
