@@ -16,6 +16,7 @@
 #include <mutex>
 #include <thread>
 
+#include "benchmarks/real_scan_check.hpp"
 #include "core/error.hpp"
 #include "perception/cloud_io.hpp"
 #include "perception/localizer.hpp"
@@ -131,7 +132,15 @@ int main(int argc, char** argv) {
   std::string cache, csv;
   bool no_paper = false, no_impostors = false, noise_free = false;
   std::vector<std::string> cells;
-  std::string samples;
+  std::string samples, real, real_part = "scenes/parts/paper_tee.yaml";
+  std::vector<std::string> real_impostors;
+  app.add_option(
+      "--real", real,
+      "also check the real scans of DIR (scan*.pcd, the part's mesh, nominal.json with the placement)");
+  app.add_option("--real-part", real_part, "the part spec giving the real part's seams")
+      ->capture_default_str();
+  app.add_option("--real-impostor", real_impostors,
+                 "other meshes sought in the real scans (must be refused)");
   app.add_option("--samples", samples,
                  "also localize every DIR/*/scan.pcd against its part.stl and truth.json");
   app.add_option("--layouts", layouts, "seeded cells per part")->capture_default_str();
@@ -193,7 +202,12 @@ int main(int argc, char** argv) {
         }
       }
     }
-    if (cells.empty()) return 0;
+    int real_failed = 0;
+    if (!real.empty() && !std::filesystem::is_directory(real))
+      std::fprintf(stderr, "localize_survey: no real scan directory %s, skipped\n", real.c_str());
+    else if (!real.empty())
+      real_failed = check_real_scans(real, real_part, real_impostors, !no_paper);
+    if (cells.empty()) return real_failed ? 3 : 0;
     std::vector<PartData> parts;
     for (const std::string& f : cells) {
       PartData d;

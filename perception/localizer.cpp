@@ -183,6 +183,10 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   }
   out.covariance = uncertainty.covariance;
   out.seam_error_bound_m = seam_error_bound_m(uncertainty, seams, s.uncertainty) + out.wall_side_bias_m;
+  // A fit about as likely that welds within the tolerance of this one is part of the uncertainty; one beyond
+  // it makes the answer ambiguous (the verdict).
+  if (out.margin_llr < s.verdict.min_margin_llr && out.rival_offset_m <= s.verdict.weld_tolerance_m)
+    out.seam_error_bound_m = std::max(out.seam_error_bound_m, out.rival_offset_m);
 
   out.T_base_part = orthonormalized(scene.T_base_table * best.P.inverse() * lift);
   out.fitness = best.score.region ? static_cast<double>(best.score.inliers) / best.score.region : 0.0;

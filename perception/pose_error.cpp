@@ -138,6 +138,14 @@ SampleTruth read_sample_truth(const std::string& file) {
         seam.start[k] = s.at("start").at(static_cast<size_t>(k));
         seam.end[k] = s.at("end").at(static_cast<size_t>(k));
       }
+      // A full circle about a vertical axis (a round tube's foot): its centre and radius.
+      if (s.contains("circle_radius")) {
+        seam.kind = Seam::Kind::kArc;
+        seam.radius_m = s.at("circle_radius");
+        for (int k = 0; k < 3; ++k) seam.center[k] = s.at("centre").at(static_cast<size_t>(k));
+        seam.axis = Vec3::UnitZ();
+        seam.sweep_rad = 2 * kPi;
+      }
       t.part.seams.push_back(seam);
     }
   } catch (const nlohmann::json::exception& e) {

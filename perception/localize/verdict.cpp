@@ -93,7 +93,7 @@ std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
     return buf;
   }
   if (in.ambiguity >= s.ambiguity_ratio) return "ambiguous: a different pose fits almost as well";
-  if (in.margin_llr < s.min_margin_llr) {
+  if (in.margin_llr < s.min_margin_llr && in.rival_offset_m > tol) {
     std::snprintf(buf, sizeof buf,
                   "ambiguous: a pose that puts the seams %.1f mm away fits almost as well (likelihood ratio "
                   "e^%.1f; e^%.0f needed), as when the scan may lie on either side of a wall: sweep again so "
