@@ -127,13 +127,17 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
     }
     if (!dup) chosen.push_back(&r);
   }
+  // With rays, the finalists are refined by casting them; without, the surface fit (4c) refines them.
   std::vector<Candidate> refined(chosen.size());
   parallel_for(chosen.size(), s.threads, [&](size_t i) {
+    if (scene.ray_points.empty()) {
+      refined[i] = *chosen[i];
+      return;
+    }
     const Iso3& P = chosen[i]->P;
-    const std::vector<ScanPoint> near = thinned(
-        scene.ray_points.empty() ? points_near_pose(scene.icp_points, model, P, s.icp)
-                                 : rays_near_pose(scene, scan_base, viewpoints_base, model, P, s.icp.rays),
-        static_cast<size_t>(s.icp.fine_points));
+    const std::vector<ScanPoint> near =
+        thinned(rays_near_pose(scene, scan_base, viewpoints_base, model, P, s.icp.rays),
+                static_cast<size_t>(s.icp.fine_points));
     const IcpResult f = planar_icp(near, scene, model, P, s.icp.fine_iterations, true, s.icp);
     refined[i] = {f.P, f, score_pose(scene, footprint, model, f.P, s.score)};
   });
@@ -211,6 +215,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   verdict.wall_side_bias_m = out.wall_side_bias_m;
   verdict.wall_sigma_m = out.wall_sigma_m;
   verdict.thin_wall_m = model.thin_wall_m;
+  verdict.seams_given = !seam_points.empty();
   verdict.max_free_space = s.score.max_free_space;
   const std::string reason = verdict_reason(verdict, s.verdict);
   out.found = reason.empty();

@@ -68,7 +68,11 @@ std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
   const Score& best = in.score;
   const double fitness = best.region ? static_cast<double>(best.inliers) / best.region : 0.0;
   const double tol = s.weld_tolerance_m;
-  char buf[400];
+  const char* where =
+      in.seams_given
+          ? "at the seams"
+          : "somewhere on the part (no seams given: with the part spec the bound is taken at its seams)";
+  char buf[600];
   if (best.free_space > in.max_free_space) return "the table is seen where the best match would stand";
   if (best.coverage < s.min_coverage) return "the best match covers too little of the model";
   if (fitness < s.min_fitness) return "the part fits the scan poorly";
@@ -104,19 +108,19 @@ std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
   if (!(in.seam_error_bound_m <= tol) && in.wall_side_bias_m > 0.5 * in.seam_error_bound_m) {
     std::snprintf(
         buf, sizeof buf,
-        "the pose is uncertain by up to %.2f mm at the seams (95 %%; tolerance %.2f mm): the points "
-        "spread %.1f mm across walls %.1f mm thick and the cloud carries no viewpoints, so a point's "
-        "side of a wall is a guess: give the cloud with its viewpoints (PCD fields vp_x vp_y vp_z), "
-        "or sweep so that the LiDAR sees the walls more squarely",
-        1e3 * in.seam_error_bound_m, 1e3 * tol, 1e3 * in.wall_sigma_m, 1e3 * in.thin_wall_m);
+        "the pose is uncertain by up to %.2f mm %s (95 %%; tolerance %.2f mm): the points spread %.1f mm "
+        "across walls %.1f mm thick and the cloud carries no viewpoints, so a point's side of a wall is a "
+        "guess: give the cloud with its viewpoints (PCD fields vp_x vp_y vp_z), or sweep so that the LiDAR "
+        "sees the walls more squarely",
+        1e3 * in.seam_error_bound_m, where, 1e3 * tol, 1e3 * in.wall_sigma_m, 1e3 * in.thin_wall_m);
     return buf;
   }
   if (!(in.seam_error_bound_m <= tol)) {
     std::snprintf(
         buf, sizeof buf,
-        "the pose is uncertain by up to %.2f mm at the seams (95 %%; tolerance %.2f mm): sweep again "
-        "so that the LiDAR sees more of the part's walls",
-        1e3 * in.seam_error_bound_m, 1e3 * tol);
+        "the pose is uncertain by up to %.2f mm %s (95 %%; tolerance %.2f mm): sweep again so that the "
+        "LiDAR sees more of the part's walls",
+        1e3 * in.seam_error_bound_m, where, 1e3 * tol);
     return buf;
   }
   return "";

@@ -63,6 +63,7 @@ struct VerdictInput {
   double wall_side_bias_m = 0.0;  ///< the part of the bound that allows for points on the wrong face [m]
   double wall_sigma_m = 0.0;      ///< the spread of the scan's points across walls [m]
   double thin_wall_m = 0.0;       ///< the part's thin walls' thickness [m]
+  bool seams_given = true;        ///< false: the bound is taken over the part's whole visible surface
   double max_free_space = 0.02;
 };
 
