@@ -43,6 +43,8 @@ nlohmann::json pose_to_json(const PoseEstimate& pose) {
   out["seam_error_bound_mm"] = std::isfinite(pose.seam_error_bound_m)
                                    ? nlohmann::json(1e3 * pose.seam_error_bound_m)
                                    : nlohmann::json();
+  out["yaw_bound_deg"] =
+      std::isfinite(pose.yaw_bound_rad) ? nlohmann::json(rad2deg(pose.yaw_bound_rad)) : nlohmann::json();
   out["covariance_yaw_x_y"] = nlohmann::json::array();
   for (int r = 0; r < 3; ++r)
     out["covariance_yaw_x_y"].push_back(

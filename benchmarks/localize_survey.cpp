@@ -14,6 +14,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <random>
 #include <thread>
 
 #include "benchmarks/real_scan_check.hpp"
@@ -113,6 +114,55 @@ void split_error(const Iso3& found, const Iso3& truth, double& radial, double& t
   tangential = out.x() * e.y() - out.y() * e.x();
 }
 
+/// The seeded LiDAR mount error of a trial: translation and rotation per axis N(0, sigma).
+Iso3 mount_error(uint64_t seed, double sigma_m, double sigma_rad) {
+  if (sigma_m <= 0 && sigma_rad <= 0) return Iso3::Identity();
+  std::mt19937_64 rng(seed * 0x9E3779B97F4A7C15ULL + 17);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  Vec3 t, r;
+  for (int k = 0; k < 3; ++k) t[k] = sigma_m * normal(rng);
+  for (int k = 0; k < 3; ++k) r[k] = sigma_rad * normal(rng);
+  return make_transform(t, rpy_to_matrix(r.x(), r.y(), r.z()));
+}
+
+/// `mesh` scaled along x, y and z about its box's centre so that each extent changes by a seeded draw
+/// uniform in +-deviation_m (its lowest face stays at its height), written as binary STL.
+void write_deviated_mesh(const Mesh& mesh, double deviation_m, uint64_t seed, const std::string& path) {
+  Vec3 lo = Vec3::Constant(1e9), hi = Vec3::Constant(-1e9);
+  for (const Vec3& v : mesh.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+  std::mt19937_64 rng(seed * 0x2545F4914F6CDD1DULL + 29);
+  std::uniform_real_distribution<double> u(-deviation_m, deviation_m);
+  const Vec3 ext = hi - lo, c = 0.5 * (lo + hi);
+  Vec3 scale;
+  for (int k = 0; k < 3; ++k) scale[k] = (ext[k] + u(rng)) / ext[k];
+  std::ofstream out(path, std::ios::binary);
+  char header[80] = "weldtwin survey: a part off its CAD";
+  out.write(header, 80);
+  const uint32_t n = static_cast<uint32_t>(mesh.faces.size());
+  out.write(reinterpret_cast<const char*>(&n), 4);
+  auto moved = [&](const Vec3& v) {
+    Vec3 p = c + (v - c).cwiseProduct(scale);
+    p.z() = lo.z() + (v.z() - lo.z()) * scale.z();
+    return p;
+  };
+  for (const auto& f : mesh.faces) {
+    const Vec3 a = moved(mesh.vertices[static_cast<size_t>(f[0])]),
+               b = moved(mesh.vertices[static_cast<size_t>(f[1])]),
+               cc = moved(mesh.vertices[static_cast<size_t>(f[2])]);
+    const Vec3 nn = (b - a).cross(cc - a).normalized();
+    float buf[12];
+    for (int k = 0; k < 3; ++k) {
+      buf[k] = static_cast<float>(nn[k]);
+      buf[3 + k] = static_cast<float>(a[k]);
+      buf[6 + k] = static_cast<float>(b[k]);
+      buf[9 + k] = static_cast<float>(cc[k]);
+    }
+    out.write(reinterpret_cast<const char*>(buf), sizeof buf);
+    const uint16_t attr = 0;
+    out.write(reinterpret_cast<const char*>(&attr), 2);
+  }
+}
+
 bool success(const PoseEstimate& p, const PoseError& e) {
   return p.found && e.seam_max_m <= 1e-3 && e.rotation_rad <= deg2rad(0.5);
 }
@@ -158,6 +208,15 @@ int main(int argc, char** argv) {
       ->allow_extra_args(false);
   app.add_flag("--noise-free", noise_free, "exact ranges, no dropouts or mixed pixels (to see biases)");
   bool no_viewpoints = false;
+  std::string sweep_file;
+  double mount_error_mm = 0.0, mount_error_deg = 0.0, part_deviation_mm = 0.0;
+  app.add_option("--sweep", sweep_file, "sweep program for every cell (default: each cell's own)");
+  app.add_option(
+      "--mount-error-mm", mount_error_mm,
+      "the LiDAR mount off by a seeded draw, sigma per axis [mm] (the scan assembled with the nominal)");
+  app.add_option("--mount-error-deg", mount_error_deg, "... and per rotation axis [deg]");
+  app.add_option("--part-deviation-mm", part_deviation_mm,
+                 "the twin's part scaled by up to +-this in each dimension (its CAD unchanged) [mm]");
   app.add_flag("--no-viewpoints", no_viewpoints,
                "localize the clouds without their viewpoints, as other tools' clouds");
   app.add_option("cells", cells, "cell YAML files");
@@ -224,6 +283,11 @@ int main(int argc, char** argv) {
     if (!cache.empty()) std::filesystem::create_directories(cache);
     std::string lidar_key;
     for (const auto& [k, v] : lidar_overrides) lidar_key += "-" + k + "=" + std::to_string(v);
+    std::string condition_key;
+    if (!sweep_file.empty()) condition_key += "-sweep=" + std::filesystem::path(sweep_file).stem().string();
+    if (mount_error_mm > 0 || mount_error_deg > 0)
+      condition_key += "-mount=" + std::to_string(mount_error_mm) + "," + std::to_string(mount_error_deg);
+    if (part_deviation_mm > 0) condition_key += "-deviation=" + std::to_string(part_deviation_mm);
     const RobotModel robot = RobotModel::load(parts.front().spec.robot_urdf);
     std::vector<Trial> trials(parts.size() * static_cast<size_t>(layouts));
     std::vector<Iso3> scan_truth_of(trials.size(), Iso3::Identity());
@@ -236,19 +300,38 @@ int main(int argc, char** argv) {
         t.seed = seed0 + i % static_cast<size_t>(layouts);
         const PartData& d = parts[t.part];
         Scan scan;
-        const std::string file = cache.empty() ? ""
-                                               : cache + "/" + d.part.name + "-" + std::to_string(t.seed) +
-                                                     (noise_free ? "-exact" : "") + lidar_key + ".scan";
+        const std::string file = cache.empty()
+                                     ? ""
+                                     : cache + "/" + d.part.name + "-" + std::to_string(t.seed) +
+                                           (noise_free ? "-exact" : "") + lidar_key + condition_key + ".scan";
         if (file.empty() || !read_cache(file, scan)) {
           const CellLayout layout = make_layout(d.spec, d.part, t.seed);
-          const MujocoWorld world(d.spec, d.part, robot, layout);
-          const SweepProgram program = SweepProgram::load(d.spec.sweep_program, robot);
+          // The real part may differ from its CAD: the twin's part scaled along its axes by up to
+          // +-part_deviation_mm in each dimension (the seams and the model stay the CAD's).
+          PartSpec twin_part = d.part;
+          std::string deviated_mesh;
+          if (part_deviation_mm > 0) {
+            deviated_mesh = (std::filesystem::temp_directory_path() /
+                             ("weldtwin_survey_" + d.part.name + "_" + std::to_string(t.seed) + ".stl"))
+                                .string();
+            write_deviated_mesh(d.mesh, 1e-3 * part_deviation_mm, t.seed, deviated_mesh);
+            twin_part.mesh_path = deviated_mesh;
+          }
+          const MujocoWorld world(d.spec, twin_part, robot, layout);
+          if (!deviated_mesh.empty()) std::filesystem::remove(deviated_mesh);
+          const SweepProgram program =
+              SweepProgram::load(sweep_file.empty() ? d.spec.sweep_program : sweep_file, robot);
           LidarSetting lidar = noise_free ? LidarSetting().noise_free() : LidarSetting();
           lidar.seed = t.seed;
           lidar.apply(lidar_overrides, "--lidar");
           SweepOptions opt;
           opt.threads = jobs > 1 ? 1 : 0;
-          const SweepResult r = simulate_sweep(world, robot, program, lidar, opt);
+          // An uncalibrated LiDAR mount: the twin sweeps through a mount off by a seeded draw, the scan is
+          // assembled with the nominal one.
+          const Iso3 mount_delta = mount_error(t.seed, 1e-3 * mount_error_mm, deg2rad(mount_error_deg));
+          const RobotModel real_robot =
+              mount_delta.isApprox(Iso3::Identity()) ? robot : robot.with_mount_offset("lidar", mount_delta);
+          const SweepResult r = simulate_sweep(world, real_robot, program, lidar, opt);
           const AssembledCloud cloud = assemble_scan(r.log, robot);
           scan.points = cloud.points_base;
           scan.viewpoints = cloud.viewpoints_base;

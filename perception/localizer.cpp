@@ -186,6 +186,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
     out.ambiguity = ambiguity(best, rivals, model, seam_points, lift, s.score.max_free_space, s.verdict);
   }
   out.covariance = uncertainty.covariance;
+  out.yaw_bound_rad = yaw_bound_rad(uncertainty, s.uncertainty);
   out.seam_error_bound_m = seam_error_bound_m(uncertainty, seams, s.uncertainty) + out.wall_side_bias_m;
   // A fit about as likely that welds within the tolerance of this one is part of the uncertainty; one beyond
   // it makes the answer ambiguous (the verdict).
@@ -216,6 +217,8 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   verdict.wall_sigma_m = out.wall_sigma_m;
   verdict.thin_wall_m = model.thin_wall_m;
   verdict.seams_given = !seam_points.empty();
+  verdict.yaw_bound_rad = out.yaw_bound_rad;
+  verdict.yaw_matters = !seams_turn_onto_themselves(seam_points, s.verdict);
   verdict.max_free_space = s.score.max_free_space;
   const std::string reason = verdict_reason(verdict, s.verdict);
   out.found = reason.empty();

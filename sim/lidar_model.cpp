@@ -15,7 +15,7 @@ int LidarSetting::samples_per_turn() const {
 
 LidarSetting LidarSetting::noise_free() const {
   LidarSetting s = *this;
-  s.noise = s.quantize = s.grazing_dropouts = s.mixed_pixels = s.random_dropouts = false;
+  s.noise = s.quantize = s.grazing_dropouts = s.mixed_pixels = s.random_dropouts = s.stray_returns = false;
   return s;
 }
 
@@ -33,12 +33,14 @@ void LidarSetting::apply(const std::map<std::string, double>& overrides, const s
       {"mixed_pixel_jump_m", &mixed_pixel_jump_m},
       {"mixed_pixel_probability", &mixed_pixel_probability},
       {"random_dropout_probability", &random_dropout_probability},
+      {"stray_return_probability", &stray_return_probability},
   };
   const std::map<std::string, bool*> flags = {{"noise", &noise},
                                               {"quantize", &quantize},
                                               {"grazing_dropouts", &grazing_dropouts},
                                               {"mixed_pixels", &mixed_pixels},
-                                              {"random_dropouts", &random_dropouts}};
+                                              {"random_dropouts", &random_dropouts},
+                                              {"stray_returns", &stray_returns}};
   for (const auto& [key, value] : overrides) {
     if (auto it = numbers.find(key); it != numbers.end()) {
       *it->second = value;
@@ -73,6 +75,10 @@ double LidarErrorModel::measure(double range_m, double cos_incidence) {
       return 0.0;
   }
   double r = range_m;
+  if (s_.stray_returns && uniform_(rng_) < s_.stray_return_probability) {
+    constexpr double kBeyond = 1.2;  // multipath reports up to a fifth beyond the surface
+    r = s_.min_range_m + uniform_(rng_) * (kBeyond * range_m - s_.min_range_m);
+  }
   if (s_.noise) r += (s_.noise_sigma_m + s_.noise_sigma_rel * range_m) * normal_(rng_);
   if (s_.quantize) r = std::round(r / s_.resolution_m) * s_.resolution_m;
   if (r < s_.min_range_m || r > s_.max_range_m) return 0.0;

@@ -33,6 +33,12 @@ struct LidarSetting {
   bool random_dropouts = true;  ///< occasional lost samples anywhere
   double random_dropout_probability = 0.002;
 
+  /// Stray returns (off by default: the benchmark draws them when asked): a sample reports a range anywhere
+  /// between the minimum range and a fifth beyond its surface, as spatter, dust or multipath off bright
+  /// steel give; points in the volume in front of the surface, and behind it.
+  bool stray_returns = false;
+  double stray_return_probability = 0.002;
+
   uint64_t seed = 1;  ///< noise seed (the sweep mixes in the turn index)
 
   int samples_per_turn() const;

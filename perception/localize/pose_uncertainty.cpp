@@ -71,6 +71,11 @@ double seam_error_bound_m(const PoseUncertainty& u, const std::vector<Vec3>& poi
   return std::sqrt(s.chi2_3dof * worst);
 }
 
+double yaw_bound_rad(const PoseUncertainty& u, const PoseUncertaintySetting& s) {
+  if (!u.ok) return std::numeric_limits<double>::infinity();
+  return std::sqrt(s.chi2_3dof * u.covariance(0, 0));
+}
+
 double wall_side_bias_m(double t, double sigma) {
   if (t <= 0.0 || sigma <= 0.0) return 0.0;
   const double q = 0.5 * std::erfc(t / (2.0 * sigma) / std::sqrt(2.0));  // Phi(-t / 2 sigma)

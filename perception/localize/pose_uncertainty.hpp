@@ -47,6 +47,10 @@ PoseUncertainty pose_uncertainty(const std::vector<ResidualTerm>& terms,
 double seam_error_bound_m(const PoseUncertainty& u, const std::vector<Vec3>& points,
                           const PoseUncertaintySetting& setting = {});
 
+/// The largest turn about the table normal within the 95 % confidence region of `u` [rad]; +inf when `u`
+/// is not ok.
+double yaw_bound_rad(const PoseUncertainty& u, const PoseUncertaintySetting& setting = {});
+
 /// What a fit without viewpoints may be off by across walls of thickness `t_m` whose points spread by
 /// `sigma_m`: a point thrown beyond the wall's middle is taken for the other face (share q = Phi(-t / 2
 /// sigma)) and moves the fitted face by about t; the two faces' shares may act the same way: 2 q t [m].

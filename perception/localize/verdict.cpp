@@ -55,6 +55,17 @@ std::vector<const Candidate*> distinct_rivals(const Candidate& best,
   return out;
 }
 
+bool seams_turn_onto_themselves(const std::vector<Vec3>& seams, const VerdictSetting& s) {
+  if (seams.empty()) return false;
+  Vec3 c = Vec3::Zero();
+  for (const Vec3& p : seams) c += p;
+  c /= static_cast<double>(seams.size());
+  constexpr double kTurnDeg = 5.0;  // a turn this big moves a seam that is not a circle off itself
+  const Iso3 D = make_transform(c, Mat3::Identity()) * planar_pose(0, 0, 0, deg2rad(kTurnDeg)) *
+                 make_transform(-c, Mat3::Identity());
+  return same_seams(seams, D, s);
+}
+
 double ambiguity(const Candidate& best, const std::vector<const Candidate*>& rivals, PartModel& model,
                  const std::vector<Vec3>& seam_points, const Iso3& lift, double max_free_space,
                  const VerdictSetting& s) {
@@ -121,6 +132,13 @@ std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
         "the pose is uncertain by up to %.2f mm %s (95 %%; tolerance %.2f mm): sweep again so that the "
         "LiDAR sees more of the part's walls",
         1e3 * in.seam_error_bound_m, where, 1e3 * tol);
+    return buf;
+  }
+  if (in.yaw_matters && !(in.yaw_bound_rad <= deg2rad(s.yaw_tolerance_deg))) {
+    std::snprintf(buf, sizeof buf,
+                  "the part's turn is uncertain by up to %.2f deg (95 %%; tolerance %.2f deg for the torch's "
+                  "angles): sweep again so that the LiDAR sees more of the part's walls",
+                  rad2deg(in.yaw_bound_rad), s.yaw_tolerance_deg);
     return buf;
   }
   return "";

@@ -24,6 +24,7 @@ struct VerdictSetting {
   double symmetry_m = 0.0015;        ///< the model maps onto itself within this mean distance [m]
   double same_seam_m = 0.0015;       ///< every seam point maps within this of a seam point [m]
   double weld_tolerance_m = 0.001;   ///< a pose is accepted when its seam error bound is within this [m]
+  double yaw_tolerance_deg = 0.5;    ///< ... and its yaw bound within this (the torch's angles) [deg]
   double min_margin_llr = 15.0;      ///< a fit that welds elsewhere must be this much less likely (nats)
   double rival_support_share = 0.5;  ///< rivals of at least this share of the best's support are refitted
   int surface_stride = 7;            ///< without seams, every this many visible samples stand for them
@@ -50,6 +51,10 @@ double ambiguity(const Candidate& best, const std::vector<const Candidate*>& riv
                  const std::vector<Vec3>& seam_points, const Iso3& lift, double max_free_space,
                  const VerdictSetting& setting = {});
 
+/// Whether turning `seam_points` about the vertical through their centroid maps them onto themselves (a
+/// full circle): then the part's yaw does not move the weld.
+bool seams_turn_onto_themselves(const std::vector<Vec3>& seam_points, const VerdictSetting& setting = {});
+
 /// What the verdict weighs.
 struct VerdictInput {
   Score score;                  ///< of the best pose
@@ -58,6 +63,8 @@ struct VerdictInput {
   double margin_llr = 0.0;      ///< without rays: log-likelihood ratio over the best fit welding elsewhere
   double rival_offset_m = 0.0;  ///< ... and how far that fit puts the seams [m]
   double seam_error_bound_m = 0.0;  ///< 95 % bound on the seam error from the fit [m]
+  double yaw_bound_rad = 0.0;       ///< 95 % bound on the turn about the table normal [rad]
+  bool yaw_matters = true;          ///< false: the seams map onto themselves under turns (full circles)
   double wall_offset_m = 0.0;     ///< without rays: median distance of the scan's walls from the model's [m]
   double level_offset_m = 0.0;    ///< ... and median height of its level faces above the model's [m]
   double wall_side_bias_m = 0.0;  ///< the part of the bound that allows for points on the wrong face [m]
