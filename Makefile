@@ -45,12 +45,16 @@ coverage: build
 	  scenes/cells/tube_tee.yaml
 
 # Randomized localization benchmark: 200 seeded cells per part, ours and the paper's method on the same scans,
-# 360 absent/wrong-part cases, and the independent sample scans (about half an hour on 2 cores).
+# absent/wrong-part cases (an hour or more on 2 cores). Data from elsewhere by path, when given:
+#   make localize-survey SAMPLES=DIR REAL=DIR   (scans with truth.json; real scans with nominal.json)
+SAMPLES ?=
+REAL ?=
 localize-survey: build
 	@mkdir -p $(OUT)
-	$(BUILD)/benchmarks/localize_survey --samples ../shared/samples
-	$(BUILD)/benchmarks/localize_survey --layouts 200 --jobs 2 --impostor-layouts 40 --csv $(OUT)/localize_survey.csv \
-	  scenes/cells/default.yaml scenes/cells/round_on_plate.yaml scenes/cells/tube_tee.yaml
+	$(BUILD)/benchmarks/localize_survey $(if $(SAMPLES),--samples $(SAMPLES)) $(if $(REAL),--real $(REAL)) \
+	  --layouts 200 --jobs 2 --impostor-layouts 40 --csv $(OUT)/localize_survey.csv \
+	  scenes/cells/default.yaml scenes/cells/round_on_plate.yaml scenes/cells/tube_tee.yaml \
+	  scenes/cells/offset_tube_on_plate.yaml scenes/cells/rect_tee_flat.yaml scenes/cells/paper_tee.yaml
 
 format:
 	@git ls-files '*.cpp' '*.hpp' | xargs clang-format -i
