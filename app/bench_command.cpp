@@ -68,11 +68,11 @@ struct BenchCell {
     return *prepared;
   }
 
-  explicit BenchCell(const std::string& file)
+  BenchCell(const std::string& file, const std::string& sweep)
       : cell(CellSpec::load(file)),
         part(PartSpec::load(cell.part_spec)),
         robot(RobotModel::load(cell.robot_urdf)),
-        program(SweepProgram::load(cell.sweep_program, robot)),
+        program(SweepProgram::load(sweep.empty() ? cell.sweep_program : sweep, robot)),
         mesh(load_mesh(part.mesh_path)),
         seam_points(part.seam_points(0.001)),
         symmetry(z_symmetry_order(mesh)) {}
@@ -131,6 +131,8 @@ json draw_json(const Draw& d, const std::vector<BenchCell>& cells, const BenchCo
   j["clutter"] = d.layout.clutter.size();
   j["layout_seed"] = d.layout_seed;
   j["lidar_seed"] = d.lidar_seed;
+  if (!cmd.sweep.empty()) j["sweep"] = std::filesystem::path(cmd.sweep).stem().string();
+  if (!cmd.viewpoints) j["viewpoints"] = false;
   if (cmd.mount_error_m > 0 || cmd.mount_error_rad > 0) {
     j["mount_error_mm"] = {rounded(1e3 * d.mount_xyz_m.x(), 1e-4), rounded(1e3 * d.mount_xyz_m.y(), 1e-4),
                            rounded(1e3 * d.mount_xyz_m.z(), 1e-4)};
@@ -280,8 +282,8 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d, const
 
   LocalizeSetting setting;
   setting.threads = 1;
-  const PoseEstimate ours =
-      localize(cloud.points_base, c.prepared_part(setting), setting, c.seam_points, cloud.viewpoints_base);
+  const PoseEstimate ours = localize(cloud.points_base, c.prepared_part(setting), setting, c.seam_points,
+                                     cmd.viewpoints ? cloud.viewpoints_base : std::vector<Vec3>());
   const PoseError ours_error = pose_error(c.part, ours.T_base_part, d.layout.T_base_part, c.symmetry);
   j["ours"] = pose_json(ours, ours_error);
   lap("ours");
@@ -476,9 +478,10 @@ int run_bench(const BenchCommand& cmd_in) {
       cmd.cells.push_back(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/" + name + ".yaml");
   if (cmd.jobs <= 0) cmd.jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   std::vector<BenchCell> cells;
-  for (const std::string& f : cmd.cells) cells.emplace_back(f);
+  for (const std::string& f : cmd.cells) cells.emplace_back(f, cmd.sweep);
   std::optional<BenchCell> calibration;
-  if (cmd.calibrate) calibration.emplace(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/calibration.yaml");
+  if (cmd.calibrate)
+    calibration.emplace(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/calibration.yaml", "");
 
   std::vector<uint64_t> indices;
   for (int i = cmd.shard; i < cmd.trials; i += cmd.shards) indices.push_back(static_cast<uint64_t>(i));

@@ -28,6 +28,8 @@ struct BenchCommand {
   double mount_error_m = 0.0;      ///< LiDAR mount error drawn per trial: translation sigma per axis [m]
   double mount_error_rad = 0.0;    ///< and rotation sigma per axis [rad]
   double encoder_noise_rad = 0.0;  ///< joint encoder noise (sigma) on the recorded joint states [rad]
+  std::string sweep;               ///< sweep program for every cell ("" = each cell's own)
+  bool viewpoints = true;          ///< localize with every point's viewpoint (off: as other tools' clouds)
   bool calibrate =
       false;  ///< find each trial's mount from a sweep of the calibration cell first (as weldtwin calibrate)
   bool quiet = false;

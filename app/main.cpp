@@ -162,6 +162,11 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   bc->add_flag("!--no-paper", bench.paper, "skip the paper's pipeline");
   bc->add_flag("!--no-replay", bench.replay, "localization only: no plan, no replay");
+  bc->add_option("--sweep", bench.sweep,
+                 "sweep program for every cell, e.g. scenes/sweeps/one_pass.yaml "
+                 "(default: each cell's own)");
+  bc->add_flag("!--no-viewpoints", bench.viewpoints,
+               "localize without the points' viewpoints, as clouds from other tools come");
   double replay_step_ms = 5.0;
   bc->add_option(
         "--replay-step-ms", replay_step_ms,
