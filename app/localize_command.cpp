@@ -49,6 +49,9 @@ nlohmann::json pose_to_json(const PoseEstimate& pose) {
   for (int r = 0; r < 3; ++r)
     out["covariance_yaw_x_y"].push_back(
         {pose.covariance(r, 0), pose.covariance(r, 1), pose.covariance(r, 2)});
+  if (pose.rays_cast) out["see_through_share"] = pose.see_through_share;
+  out["beyond_share"] = pose.beyond_share;
+  out["beyond_extent_mm"] = 1e3 * pose.beyond_extent_m;
   if (!pose.rays_cast) {
     out["margin_llr"] = std::isfinite(pose.margin_llr) ? nlohmann::json(pose.margin_llr) : nlohmann::json();
     out["rival_offset_mm"] = 1e3 * pose.rival_offset_m;

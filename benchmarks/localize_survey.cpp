@@ -247,11 +247,12 @@ int main(int argc, char** argv) {
             pose_error(truth.part, ours.T_base_part, truth.T_base_part, z_symmetry_order(mesh));
         std::printf(
             "sample %-26s %s: seam %.3f mm, rotation %.3f deg, %.2f s [cov %.2f fit %.2f free %.2f amb %.2f "
-            "wall %.2f noise %.2f mm bound %.2f mm side %.1f] %s\n",
+            "wall %.2f noise %.2f mm bound %.2f mm side %.1f beyond %.3f ext %.0f thru %.4f] %s\n",
             dir.filename().c_str(), ours.found ? "found  " : "refused", 1e3 * e.seam_max_m,
             rad2deg(e.rotation_rad), ours.seconds, ours.coverage, ours.fitness, ours.free_space,
             ours.ambiguity, ours.wall_residual, 1e3 * ours.noise_m, 1e3 * ours.seam_error_bound_m,
-            ours.margin_llr, ours.reason.c_str());
+            ours.margin_llr, ours.beyond_share, 1e3 * ours.beyond_extent_m, ours.see_through_share,
+            ours.reason.c_str());
         if (!no_paper) {
           const PoseEstimate paper = localize_paper(cloud, mesh);
           const PoseError pe =
@@ -317,7 +318,12 @@ int main(int argc, char** argv) {
             write_deviated_mesh(d.mesh, 1e-3 * part_deviation_mm, t.seed, deviated_mesh);
             twin_part.mesh_path = deviated_mesh;
           }
-          const MujocoWorld world(d.spec, twin_part, robot, layout);
+          // An uncalibrated LiDAR mount: the twin (its MuJoCo model and its sweep) holds the LiDAR off by a
+          // seeded draw, the scan is assembled with the nominal mount.
+          const Iso3 mount_delta = mount_error(t.seed, 1e-3 * mount_error_mm, deg2rad(mount_error_deg));
+          const RobotModel real_robot =
+              mount_delta.isApprox(Iso3::Identity()) ? robot : robot.with_mount_offset("lidar", mount_delta);
+          const MujocoWorld world(d.spec, twin_part, real_robot, layout);
           if (!deviated_mesh.empty()) std::filesystem::remove(deviated_mesh);
           const SweepProgram program =
               SweepProgram::load(sweep_file.empty() ? d.spec.sweep_program : sweep_file, robot);
@@ -326,11 +332,6 @@ int main(int argc, char** argv) {
           lidar.apply(lidar_overrides, "--lidar");
           SweepOptions opt;
           opt.threads = jobs > 1 ? 1 : 0;
-          // An uncalibrated LiDAR mount: the twin sweeps through a mount off by a seeded draw, the scan is
-          // assembled with the nominal one.
-          const Iso3 mount_delta = mount_error(t.seed, 1e-3 * mount_error_mm, deg2rad(mount_error_deg));
-          const RobotModel real_robot =
-              mount_delta.isApprox(Iso3::Identity()) ? robot : robot.with_mount_offset("lidar", mount_delta);
           const SweepResult r = simulate_sweep(world, real_robot, program, lidar, opt);
           const AssembledCloud cloud = assemble_scan(r.log, robot);
           scan.points = cloud.points_base;
@@ -382,14 +383,17 @@ int main(int argc, char** argv) {
         }
         std::fprintf(stderr,
                      " [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f noise %.2f bound %.2f llr %.1f wsig "
-                     "%.2f bias %.2f]",
+                     "%.2f bias %.2f beyond %.3f ext %.0f thru %.4f]",
                      t.ours.coverage, t.ours.fitness, t.ours.free_space, t.ours.ambiguity,
                      t.ours.wall_residual, 1e3 * t.ours.noise_m, 1e3 * t.ours.seam_error_bound_m,
-                     t.ours.margin_llr, 1e3 * t.ours.wall_sigma_m, 1e3 * t.ours.wall_side_bias_m);
+                     t.ours.margin_llr, 1e3 * t.ours.wall_sigma_m, 1e3 * t.ours.wall_side_bias_m,
+                     t.ours.beyond_share, 1e3 * t.ours.beyond_extent_m, t.ours.see_through_share);
         for (const auto& [what, p] : t.impostors)
-          std::fprintf(stderr, " | %s %s [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f]",
-                       p.found ? "FALSE ACCEPT" : "refused", what.c_str(), p.coverage, p.fitness,
-                       p.free_space, p.ambiguity, p.wall_residual);
+          std::fprintf(
+              stderr,
+              " | %s %s [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f beyond %.3f ext %.0f thru %.4f]",
+              p.found ? "FALSE ACCEPT" : "refused", what.c_str(), p.coverage, p.fitness, p.free_space,
+              p.ambiguity, p.wall_residual, p.beyond_share, 1e3 * p.beyond_extent_m, p.see_through_share);
         std::fprintf(stderr, "\n");
       }
     };

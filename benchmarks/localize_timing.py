@@ -3,7 +3,10 @@
 ours and the paper's method, as a user runs it. The samples are ASCII PCD; each is also converted to binary
 PCD (same points) so that the reader's share shows. Prints the median of REPEATS runs per case.
 
-    benchmarks/localize_timing.py [--weldtwin build/app/weldtwin] [--samples ../shared/samples] [--repeats 5]
+    benchmarks/localize_timing.py [--weldtwin build/app/weldtwin] [--samples DIR] [--real DIR] [--repeats 5]
+
+--samples DIR: folders with scan.pcd and part.stl; --real DIR: real scans (*.pcd) with the part's mesh (*.stl)
+beside them.
 """
 import argparse
 import os
@@ -43,19 +46,27 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--weldtwin", default="build/app/weldtwin")
     ap.add_argument("--samples", default="../shared/samples")
+    ap.add_argument("--real", default="")
     ap.add_argument("--repeats", type=int, default=5)
     args = ap.parse_args()
     tmp = tempfile.mkdtemp(prefix="weldtwin_timing_")
     rows = []
+    cases = []  # (name, scan, mesh)
     for name in sorted(os.listdir(args.samples)):
         d = os.path.join(args.samples, name)
-        if not os.path.isdir(d):
-            continue
-        binary = os.path.join(tmp, name + ".pcd")
-        n = to_binary_pcd(os.path.join(d, "scan.pcd"), binary)
-        for fmt, scan in (("ascii", os.path.join(d, "scan.pcd")), ("binary", binary)):
+        if os.path.isdir(d):
+            cases.append((name, os.path.join(d, "scan.pcd"), os.path.join(d, "part.stl")))
+    if args.real:
+        meshes = sorted(f for f in os.listdir(args.real) if f.endswith(".stl"))
+        for f in sorted(os.listdir(args.real)):
+            if f.endswith(".pcd") and meshes:
+                cases.append(("real " + f[:-4], os.path.join(args.real, f), os.path.join(args.real, meshes[0])))
+    for name, ascii_scan, mesh in cases:
+        binary = os.path.join(tmp, name.replace(" ", "_") + ".pcd")
+        n = to_binary_pcd(ascii_scan, binary)
+        for fmt, scan in (("ascii", ascii_scan), ("binary", binary)):
             for method in ("ours", "paper"):
-                cmd = [args.weldtwin, "localize", "-q", "--model", os.path.join(d, "part.stl"), "--scan", scan,
+                cmd = [args.weldtwin, "localize", "-q", "--model", mesh, "--scan", scan,
                        "--out", os.path.join(tmp, "pose.json"), "--method", method]
                 times = []
                 for _ in range(args.repeats):
@@ -68,8 +79,8 @@ def main():
     for name, n, fmt, method, t, rc in rows:
         print(f"{name:28} {n:7d} {fmt:>7} {method:>6} {t:9.3f} {rc}")
     for fmt in ("ascii", "binary"):
-        ours = [r[4] for r in rows if r[2] == fmt and r[3] == "ours"]
-        paper = [r[4] for r in rows if r[2] == fmt and r[3] == "paper"]
+        ours = [r[4] for r in rows if r[2] == fmt and r[3] == "ours" and not r[0].startswith("real")]
+        paper = [r[4] for r in rows if r[2] == fmt and r[3] == "paper" and not r[0].startswith("real")]
         print(f"{fmt}: ours median {statistics.median(ours):.3f} s, paper median {statistics.median(paper):.3f} s, "
               f"paper/ours {statistics.median(paper) / statistics.median(ours):.2f}x")
 

@@ -23,6 +23,9 @@
 namespace weldtwin {
 namespace {
 
+// LZF's longest back-reference copies 264 bytes from 3: no LZF block expands more than about 88-fold.
+constexpr size_t kLzfMaxRatio = 90;
+
 std::string read_file(const std::string& path) {
   if (!std::filesystem::is_regular_file(path)) throw input_error(path, "no such file");
   std::ifstream in(path, std::ios::binary);
@@ -81,7 +84,7 @@ struct Field {
   int size = 4, count = 1;
   char kind = 'F';
   size_t offset = 0;  // byte offset in a binary record
-  int column = 0;     // first value's index in an ascii line
+  size_t column = 0;  // first value's index in an ascii line
 };
 
 struct Layout {
@@ -146,17 +149,31 @@ std::vector<Vec3> read_pcd(const std::string& path, size_t& dropped, std::vector
   }
   if (format.empty()) throw input_error(path, "malformed or truncated point cloud (no DATA line)");
   if (!have_points) points = width * height;
+  if (have_points && width > 0 && points != width * height)
+    throw input_error(path, "malformed PCD header: POINTS " + std::to_string(points) +
+                                " but WIDTH x HEIGHT " + std::to_string(width) + " x " +
+                                std::to_string(height));
+  const size_t body_bytes = data.size() - pos;
+  // The most bytes of point data the body can stand for: its own size, or what LZF can expand it to.
+  const size_t max_data_bytes = format == "binary_compressed" ? body_bytes * kLzfMaxRatio : body_bytes;
   if (names.empty() || sizes.size() != names.size() || types.size() != names.size() ||
       (!counts.empty() && counts.size() != names.size()))
     throw input_error(path, "malformed PCD header: FIELDS, SIZE, TYPE and COUNT disagree");
   static const char* wanted[6] = {"x", "y", "z", "vp_x", "vp_y", "vp_z"};
-  int column = 0;
+  size_t column = 0;
   for (size_t i = 0; i < names.size(); ++i) {
     Field f;
     f.name = names[i];
     f.kind = types[i].empty() ? '?' : types[i][0];
     f.size = std::atoi(sizes[i].c_str());
-    f.count = counts.empty() ? 1 : std::atoi(counts[i].c_str());
+    if (!counts.empty()) {
+      // Each value takes at least a byte of data (two in ascii: a digit and a space).
+      const long long c = std::strtoll(counts[i].c_str(), nullptr, 10);
+      if (c < 1 || static_cast<unsigned long long>(c) > max_data_bytes / (format == "ascii" ? 2 : 1))
+        throw input_error(path, "malformed PCD header: COUNT " + counts[i] + " of field '" + names[i] +
+                                    "' is more values than the file holds");
+      f.count = static_cast<int>(c);
+    }
     if ((f.kind != 'F' && f.kind != 'I' && f.kind != 'U') ||
         (f.size != 1 && f.size != 2 && f.size != 4 && f.size != 8) ||
         (f.kind == 'F' && f.size != 4 && f.size != 8) || f.count < 1)
@@ -164,16 +181,19 @@ std::vector<Vec3> read_pcd(const std::string& path, size_t& dropped, std::vector
     f.offset = L.record;
     f.column = column;
     L.record += static_cast<size_t>(f.size) * static_cast<size_t>(f.count);
-    column += f.count;
+    column += static_cast<size_t>(f.count);
+    if (format == "ascii" && column > body_bytes / 2)
+      throw input_error(path, "malformed PCD header: a point's values are more than the file holds");
     for (int k = 0; k < 6; ++k)
       if (f.name == wanted[k]) L.want[k] = static_cast<int>(i);
     L.fields.push_back(f);
   }
   if (L.want[0] < 0 || L.want[1] < 0 || L.want[2] < 0)
     throw input_error(path, "the cloud has no x, y, z fields");
+  if (L.record > max_data_bytes)
+    throw input_error(path, "malformed PCD header: one point's fields need more bytes than the file holds");
   // A header may claim more points than the file can hold (or a count that overflows): refuse before
   // reserving or reading anything.
-  const size_t body_bytes = data.size() - pos;
   const size_t least = format == "ascii" ? 2 : format == "binary" ? std::max<size_t>(1, L.record) : 0;
   if ((least > 0 && points > body_bytes / least) ||
       (format == "binary_compressed" &&
@@ -188,7 +208,7 @@ std::vector<Vec3> read_pcd(const std::string& path, size_t& dropped, std::vector
   if (format == "ascii") {
     const char* c = data.data() + pos;
     const char* end = data.data() + data.size();
-    std::vector<double> values(static_cast<size_t>(column));
+    std::vector<double> values(column);
     size_t read = 0;
     while (read < points && c < end) {
       const char* eol = static_cast<const char*>(std::memchr(c, '\n', static_cast<size_t>(end - c)));
@@ -202,9 +222,7 @@ std::vector<Vec3> read_pcd(const std::string& path, size_t& dropped, std::vector
       if (n < values.size())
         throw input_error(path, "malformed PCD: point " + std::to_string(read) + " has " + std::to_string(n) +
                                     " of " + std::to_string(values.size()) + " values");
-      auto at = [&](int k) {
-        return values[static_cast<size_t>(L.fields[static_cast<size_t>(L.want[k])].column)];
-      };
+      auto at = [&](int k) { return values[L.fields[static_cast<size_t>(L.want[k])].column]; };
       p = Vec3(at(0), at(1), at(2));
       if (with_vp) v = Vec3(at(3), at(4), at(5));
       collect(p, v, with_vp, out, viewpoints, dropped);
@@ -224,6 +242,9 @@ std::vector<Vec3> read_pcd(const std::string& path, size_t& dropped, std::vector
       std::memcpy(sizes2, body, 8);
       if (sizes2[0] > body_size - 8 || sizes2[1] != L.record * points)
         throw input_error(path, "truncated or malformed compressed point cloud");
+      if (sizes2[1] > static_cast<size_t>(sizes2[0]) * kLzfMaxRatio)
+        throw input_error(path, "malformed compressed point cloud: " + std::to_string(sizes2[0]) +
+                                    " compressed bytes cannot hold " + std::to_string(sizes2[1]) + " bytes");
       unpacked.resize(sizes2[1]);
       if (sizes2[1] > 0 && lzf_decompress(body + 8, sizes2[0], unpacked.data(), sizes2[1]) != sizes2[1])
         throw input_error(path, "malformed compressed point cloud (LZF)");

@@ -203,6 +203,12 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   out.iterations = best.icp.iterations;
   out.inliers = best.score.inliers;
   out.rays_cast = !scene.ray_points.empty();
+  const PartExtent extent = scan_beyond_model(scene, model, best.P, s.extent);
+  out.beyond_share = extent.share();
+  out.beyond_extent_m = extent.extent_m;
+  out.see_through_share =
+      rays_through_model(scene, scan_base, viewpoints_base, model, best.P, s.see_through).share();
+  out.beyond_at_part = lift.inverse() * extent.centre;
   stage("verdict");
   VerdictInput verdict;
   verdict.score = best.score;
@@ -220,6 +226,9 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   verdict.yaw_bound_rad = out.yaw_bound_rad;
   verdict.yaw_matters = !seams_turn_onto_themselves(seam_points, s.verdict);
   verdict.max_free_space = s.score.max_free_space;
+  verdict.beyond_extent_m = out.beyond_extent_m;
+  verdict.see_through_share = out.see_through_share;
+  verdict.beyond_at_part = out.beyond_at_part;
   const std::string reason = verdict_reason(verdict, s.verdict);
   out.found = reason.empty();
   return finish(reason);

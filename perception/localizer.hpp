@@ -16,12 +16,14 @@
 #include <vector>
 
 #include "core/geometry.hpp"
+#include "perception/localize/part_extent.hpp"
 #include "perception/localize/part_model.hpp"
 #include "perception/localize/planar_icp.hpp"
 #include "perception/localize/pose_score.hpp"
 #include "perception/localize/pose_search.hpp"
 #include "perception/localize/pose_uncertainty.hpp"
 #include "perception/localize/scene_points.hpp"
+#include "perception/localize/see_through.hpp"
 #include "perception/localize/surface_icp.hpp"
 #include "perception/localize/table_plane.hpp"
 #include "perception/localize/verdict.hpp"
@@ -37,6 +39,8 @@ struct LocalizeSetting {
   PoseSearchSetting search;
   PlanarIcpSetting icp;
   PoseScoreSetting score;
+  PartExtentSetting extent;
+  SeeThroughSetting see_through;
   VerdictSetting verdict;
   SurfaceIcpSetting surface;
   PoseUncertaintySetting uncertainty;
@@ -66,8 +70,8 @@ struct PoseEstimate {
   int object_points = 0;                                  ///< points above the table after voxelisation
   bool rays_cast = false;  ///< refined by casting each point's ray from its viewpoint (the cloud had them)
   double seam_error_bound_m = 0.0;  ///< 95 % bound on any seam point's error from the fit (+inf: unbounded)
-  double yaw_bound_rad = 0.0;       ///< 95 % bound on the part's turn about the table normal (+inf: unbounded)
-  Mat3 covariance = Mat3::Zero();   ///< of (yaw [rad], x [m], y [m]) of the part, its own frame
+  double yaw_bound_rad = 0.0;      ///< 95 % bound on the part's turn about the table normal (+inf: unbounded)
+  Mat3 covariance = Mat3::Zero();  ///< of (yaw [rad], x [m], y [m]) of the part, its own frame
   /// Without viewpoints: the log-likelihood ratio of the pose over the best fit that welds elsewhere (the
   /// scan on the other side of the walls, a rival of the search); +inf: none was found.
   double margin_llr = 0.0;
@@ -76,6 +80,14 @@ struct PoseEstimate {
       0.0;  ///< without viewpoints: median distance of the scan's walls from the model's [m]
   double level_offset_m = 0.0;  ///< ... and median height of its level faces above the model's [m]
   double wall_sigma_m = 0.0;    ///< without viewpoints: spread of the residuals on walls [m]
+  /// Share of the model's faces continued past its convex edges on which the scan has points (the part is
+  /// larger than the model there), and where those lie (part frame, mesh units) [m].
+  /// With viewpoints: the share of the rays crossing the model's box that went through the model (the point
+  /// seen well behind the model's surface on its ray).
+  double see_through_share = 0.0;
+  double beyond_share = 0.0;
+  double beyond_extent_m = 0.0;        ///< the longest stretch of them [m] ...
+  Vec3 beyond_at_part = Vec3::Zero();  ///< ... and its centre
   /// Without viewpoints: what the bound allows for points taken for the other face of a thin wall [m].
   double wall_side_bias_m = 0.0;
   double seconds = 0.0;

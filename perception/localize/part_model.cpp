@@ -6,6 +6,8 @@
 #include <map>
 
 #include "core/parallel_for.hpp"
+#include "perception/localize/mesh_edges.hpp"
+#include "perception/localize/part_extent.hpp"
 
 namespace weldtwin {
 namespace {
@@ -21,35 +23,12 @@ constexpr double kWallNormalZ = 0.5;    // a sample with |n.z| below this is on 
 // Feature edges of the mesh (where the faces meet at more than sharp_edge_deg, or a face has no neighbour),
 // except along the underside resting on the table, as points edge_point_step_m apart.
 std::vector<Vec3> feature_edge_points(const Mesh& mesh, double min_z, const PartModelSetting& s) {
-  // Vertices by position (a mesh file may repeat them per face).
-  std::map<std::array<long long, 3>, int> ids;
-  std::vector<int> id(mesh.vertices.size());
-  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
-    const Vec3& v = mesh.vertices[i];
-    const std::array<long long, 3> k{std::llround(v.x() * kVertexKey), std::llround(v.y() * kVertexKey),
-                                     std::llround(v.z() * kVertexKey)};
-    id[i] = ids.emplace(k, static_cast<int>(ids.size())).first->second;
-  }
-  std::map<std::pair<int, int>, std::vector<Vec3>> edges;
-  std::map<std::pair<int, int>, std::pair<size_t, size_t>> ends;
-  for (const auto& f : mesh.faces) {
-    const Vec3 &a = mesh.vertices[static_cast<size_t>(f[0])], &b = mesh.vertices[static_cast<size_t>(f[1])],
-               &c = mesh.vertices[static_cast<size_t>(f[2])];
-    const Vec3 n = (b - a).cross(c - a);
-    if (n.norm() < kDegenerate) continue;
-    for (int k = 0; k < 3; ++k) {
-      const size_t vi = static_cast<size_t>(f[k]), vj = static_cast<size_t>(f[(k + 1) % 3]);
-      const std::pair<int, int> e{std::min(id[vi], id[vj]), std::max(id[vi], id[vj])};
-      edges[e].push_back(n.normalized());
-      ends[e] = {vi, vj};
-    }
-  }
   std::vector<Vec3> out;
-  for (const auto& [e, normals] : edges) {
+  for (const MeshEdge& e : mesh_edges(mesh)) {
     const bool sharp =
-        normals.size() != 2 || normals[0].dot(normals[1]) < std::cos(deg2rad(s.sharp_edge_deg));
+        e.normals.size() != 2 || e.normals[0].dot(e.normals[1]) < std::cos(deg2rad(s.sharp_edge_deg));
     if (!sharp) continue;
-    const Vec3 &a = mesh.vertices[ends[e].first], &b = mesh.vertices[ends[e].second];
+    const Vec3 &a = mesh.vertices[e.a], &b = mesh.vertices[e.b];
     if (a.z() - min_z < kUndersideZ && b.z() - min_z < kUndersideZ) continue;
     const int n = std::max(1, static_cast<int>((b - a).norm() / s.edge_point_step_m));
     for (int k = 0; k <= n; ++k) out.push_back(a + (b - a) * (static_cast<double>(k) / n));
@@ -277,6 +256,8 @@ void build_part_model(const Mesh& mesh, double min_z, const PartModelSetting& s,
     }
     model.footprint.value[i] = static_cast<float>(lowest);
   }
+
+  beyond_edge_samples(rest, model, s);
 
   // The lazy nearest-sample grid.
   model.cache_cell = s.lookup_cell_m;

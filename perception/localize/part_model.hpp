@@ -33,6 +33,10 @@ struct PartModelSetting {
   double thin_wall_min_share = 0.05;   ///< ... when at least this share of the wall samples is that thin
   int wall_directions = 4;             ///< at most this many directions across thin walls are tried
   double wall_direction_gap_deg = 40;  ///< ... at least this far apart [deg]
+  /// Faces continued past their convex edges by these distances (see part_extent.hpp) [m]
+  std::vector<double> beyond_m{0.006, 0.010, 0.015, 0.020};
+  double beyond_step_m = 0.002;         ///< ... every this far along the edge [m]
+  double beyond_clearance_share = 0.7;  ///< ... where the part is at least this share of that away
 };
 
 struct PartModel {
@@ -57,6 +61,8 @@ struct PartModel {
   /// Moves of the part (its frame, x and y) by one thin wall's thickness across its walls: where a scan
   /// without viewpoints may fit the other side of every wall as well as the right one.
   std::vector<Eigen::Vector2d> wall_side_shifts;
+  std::vector<Vec3> beyond;        ///< the faces continued past their convex edges, into free air
+  std::vector<float> beyond_dist;  ///< ... and how far past the edge each sample is [m]
 
   /// The sample nearest p, or -1 outside the lookup grid. Answers come from a lazily filled grid (each slot
   /// holds the sample nearest its centre): ICP asks about the same places again and again. Safe to call from

@@ -26,13 +26,19 @@ struct SurfaceIcpSetting {
   double converged_step_m = 1e-7;  ///< a step below this (yaw times yaw_lever_m + translation) ends it [m]
   double yaw_lever_m = 0.1;
   double damping = 1e-9;  ///< added to the normal equations' diagonal
+  /// A point is more likely to lie on a face a scanner sees from more directions (the part model's view
+  /// score, 0-4): each matched point adds -log((score + 1) / 5) times this to the cost [nats], so that the
+  /// scan of a wall's outer face does not fit the inner face (seen only past the rim) as well.
+  double view_prior_weight = 1.0;
+  int max_view_score = 4;
 };
 
 struct SurfaceFit {
   Iso3 P = Iso3::Identity();  ///< table frame -> part frame
   int iterations = 0;
   bool converged = false;
-  double cost = 0.0;                ///< sum of Tukey's rho over the points, in units of the noise variance
+  double cost = 0.0;                ///< sum of Tukey's rho over the points, in units of the noise variance,
+                                    ///< plus the view prior [nats]
   int inliers = 0;                  ///< points with non-zero weight
   std::vector<ResidualTerm> terms;  ///< the residuals at P
   /// How far the scan's surfaces are from the model's, by the distance of the points' neighbourhood

@@ -85,8 +85,24 @@ std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
           : "somewhere on the part (no seams given: with the part spec the bound is taken at its seams)";
   char buf[600];
   if (best.free_space > in.max_free_space) return "the table is seen where the best match would stand";
+  if (in.rays && in.see_through_share > s.max_see_through_share) {
+    std::snprintf(buf, sizeof buf,
+                  "the LiDAR saw through the best match: %.0f %% of the rays crossing it reach points behind "
+                  "its surface",
+                  100 * in.see_through_share);
+    return buf;
+  }
   if (best.coverage < s.min_coverage) return "the best match covers too little of the model";
   if (fitness < s.min_fitness) return "the part fits the scan poorly";
+  if (in.beyond_extent_m > s.max_beyond_extent_m) {
+    const Vec3& c = in.beyond_at_part;
+    std::snprintf(buf, sizeof buf,
+                  "the scan goes on past the model's edges along %.0f mm around (%.0f, %.0f, %.0f) mm of the "
+                  "part: a different part, or the part is larger than its CAD there: check the part and its "
+                  "model",
+                  1e3 * in.beyond_extent_m, 1e3 * c.x(), 1e3 * c.y(), 1e3 * c.z());
+    return buf;
+  }
   // With rays, the walls' residual against the table's noise tells a different shape; without them the
   // scan's own surfaces (neighbourhood centroids, where the noise averages out) against the model's.
   if (in.rays && best.wall_residual > s.max_wall_residual)

@@ -28,6 +28,12 @@ struct VerdictSetting {
   double min_margin_llr = 15.0;      ///< a fit that welds elsewhere must be this much less likely (nats)
   double rival_support_share = 0.5;  ///< rivals of at least this share of the best's support are refitted
   int surface_stride = 7;            ///< without seams, every this many visible samples stand for them
+  /// The scan may go on past the model's edges along at most this much (a clamp's pad and arm over the
+  /// part's edge make 20-45 mm; a part larger than its model, a whole edge) [m]
+  double max_beyond_extent_m = 0.07;
+  /// With rays: at most this share of the rays crossing the model may go through it (right poses: 0-3 % on
+  /// full sweeps, up to 9 % on one pass, from rays that graze its edges; another part: 19-27 %)
+  double max_see_through_share = 0.15;
 };
 
 /// A refined pose and its figures.
@@ -72,6 +78,10 @@ struct VerdictInput {
   double thin_wall_m = 0.0;       ///< the part's thin walls' thickness [m]
   bool seams_given = true;        ///< false: the bound is taken over the part's whole visible surface
   double max_free_space = 0.02;
+  double see_through_share = 0.0;  ///< with rays: the share of those crossing the model that went through it
+  double beyond_extent_m = 0.0;    ///< the longest stretch of the model's faces continued past its edges with
+                                   ///< the scan on them [m] ...
+  Vec3 beyond_at_part = Vec3::Zero();  ///< ... and its centre (part frame) [m]
 };
 
 /// Why the figures refuse the pose, or "" when they accept it: in words a person can act on.

@@ -177,5 +177,38 @@ TEST(CloudIo, TruncatedFilesAreRefusedNamingTheFile) {
     }
 }
 
+// What mutated headers did before (each allocated for what the header said, not what the file held: 8 GB
+// for a COUNT of 1e9, 4 GiB for a compressed block of 2 bytes; a COUNT of 2^31-1 overflowed to an internal
+// error; POINTS below WIDTH x HEIGHT dropped points silently): now one clear error naming the file.
+TEST(CloudIo, HeadersPromisingMoreThanTheFileHoldsAreRefusedBeforeAllocating) {
+  std::filesystem::create_directories(dir);
+  const std::string file = (dir / "promise.pcd").string();
+  auto refused = [&](const std::string& bytes, const std::string& says) {
+    std::ofstream(file, std::ios::binary) << bytes;
+    try {
+      read_cloud(file);
+      ADD_FAILURE() << "read: " << bytes.substr(0, 120);
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("promise.pcd"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+    }
+  };
+  const std::string head = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\n";
+  const std::string ten = "0.3 0.1 0.0\n0.3 0.1 0.0\n0.3 0.1 0.0\n0.3 0.1 0.0\n0.3 0.1 0.0\n";
+  for (const char* count : {"2147483647", "1000000000", "-1", "99999999999999999999"})
+    refused(head + "COUNT " + count + " 1 1\nWIDTH 5\nHEIGHT 1\nPOINTS 5\nDATA ascii\n" + ten, "COUNT");
+  refused(head + "COUNT 1 1 1\nWIDTH 10\nHEIGHT 1\nPOINTS 5\nDATA ascii\n" + ten, "WIDTH x HEIGHT");
+  // A compressed block of 2 bytes claiming to unpack to 357913941 x 12 bytes.
+  std::string body(8, '\0');
+  const uint32_t sizes[2] = {2, 357913941u * 12u};
+  std::memcpy(body.data(), sizes, 8);
+  body += "ab";
+  refused(head + "COUNT 1 1 1\nWIDTH 357913941\nHEIGHT 1\nPOINTS 357913941\nDATA binary_compressed\n" + body,
+          "compressed bytes cannot hold");
+  // The same header with an honest count reads.
+  std::ofstream(file) << head << "COUNT 1 1 1\nWIDTH 5\nHEIGHT 1\nPOINTS 5\nDATA ascii\n" << ten;
+  EXPECT_EQ(read_cloud(file).size(), 5u);
+}
+
 }  // namespace
 }  // namespace weldtwin

@@ -7,9 +7,11 @@
 
 #include <random>
 
+#include "perception/localize/part_extent.hpp"
 #include "perception/localize/pose_search.hpp"
 #include "perception/localize/pose_uncertainty.hpp"
 #include "perception/localize/scene_points.hpp"
+#include "perception/localize/see_through.hpp"
 #include "perception/localize/surface_icp.hpp"
 #include "perception/localize/table_plane.hpp"
 #include "perception/localize/wall_side.hpp"
@@ -25,7 +27,7 @@ namespace {
 // sensor_y, 0.45 m up, from x = 0.1 to 0.8 m: rays towards random points of the part's box and of the table
 // around it, the nearest hit of the part or the table, moved along the ray by N(0, sigma).
 std::vector<Vec3> one_sided_scan(const Mesh& mesh, const Iso3& T_base_part, double sensor_y, double sigma,
-                                 uint64_t seed) {
+                                 uint64_t seed, std::vector<Vec3>* viewpoints = nullptr) {
   const MeshRays rays(mesh);
   Vec3 lo = Vec3::Constant(1e9), hi = Vec3::Constant(-1e9);
   for (const Vec3& v : mesh.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
@@ -50,6 +52,7 @@ std::vector<Vec3> one_sided_scan(const Mesh& mesh, const Iso3& T_base_part, doub
     const double t = std::min(t_table, t_part);
     if (t > 2.0) continue;
     cloud.push_back(sensor + (t + noise(rng)) * d);
+    if (viewpoints) viewpoints->push_back(sensor);
   }
   return cloud;
 }
@@ -205,6 +208,85 @@ TEST(LocalizeStages, WallSideBiasGrowsWithTheSpreadAcrossTheWall) {
   EXPECT_LT(wall_side_bias_m(0.0032, 0.0003), 1e-9);  // points far tighter than the wall
   EXPECT_NEAR(wall_side_bias_m(0.0032, 0.0016), 2 * 0.0032 * 0.158655, 1e-6);  // Phi(-1)
   EXPECT_GT(wall_side_bias_m(0.0032, 0.002), wall_side_bias_m(0.0032, 0.0015));
+}
+
+TEST(LocalizeStages, TheViewPriorMakesTheWrongSideOfAWallCostlier) {
+  // A wall's outer face seen from outside: fitted onto the inner face (seen only past the rim) the points
+  // lie where a scanner rarely looks, and the prior says so on top of the residuals.
+  const Scene sc = tube_scene(0.0015, 4);
+  Prepared p = prepare(sc);
+  const Iso3 P0 = truth_P(p, sc);
+  SurfaceIcpSetting plain;
+  plain.view_prior_weight = 0.0;
+  for (const Eigen::Vector2d& d : p.model.wall_side_shifts) {
+    const Iso3 wrong = planar_pose(d.x(), d.y(), 0.0, 0.0) * P0;
+    const std::vector<ScanPoint> pts = surface_points(p.scene.icp_points, p.model, P0, 0.008);
+    const double with_prior =
+        surface_cost(pts, p.model, wrong, p.noise).cost - surface_cost(pts, p.model, P0, p.noise).cost;
+    const double without = surface_cost(pts, p.model, wrong, p.noise, plain).cost -
+                           surface_cost(pts, p.model, P0, p.noise, plain).cost;
+    EXPECT_GT(with_prior, without + 20.0) << d.transpose();
+  }
+}
+
+// The tube on its plate with the plate 20 mm longer on its +x side than the model.
+Mesh longer_plate(const Mesh& mesh) {
+  Mesh out = mesh;
+  for (Vec3& v : out.vertices)
+    if (v.x() > 0.07) v.x() += 0.02;
+  return out;
+}
+
+TEST(LocalizeStages, ThePartLargerThanItsModelShowsPastTheModelsEdges) {
+  Scene sc = tube_scene(0.0015, 5);
+  Prepared p = prepare(sc);
+  const Iso3 P0 = truth_P(p, sc);
+  const PartExtent right = scan_beyond_model(p.scene, p.model, P0);
+  EXPECT_GT(right.samples, 100);
+  EXPECT_LT(right.extent_m, 0.03);  // nothing, or a few strays together
+  // The same place scanned with the plate 20 mm longer: the plate's top and side go on along its edge.
+  sc.cloud = one_sided_scan(longer_plate(sc.mesh), sc.truth, -0.35, 0.0015, 5);
+  Prepared q = prepare(sc);
+  const PartExtent longer = scan_beyond_model(q.scene, p.model, truth_P(q, sc));
+  EXPECT_GT(longer.extent_m, 0.12);            // most of the plate's 160 mm edge
+  EXPECT_NEAR(longer.centre.x(), 0.09, 0.01);  // beyond the model's +x edge
+  // ... and the localizer does not accept the part there.
+  const PoseEstimate pose = localize(sc.cloud, sc.mesh, LocalizeSetting(), sc.part.seam_points(0.001));
+  EXPECT_FALSE(pose.found);
+  VerdictInput in;
+  in.score.coverage = 1.0, in.score.inliers = in.score.region = 100;
+  in.beyond_extent_m = 0.1;
+  EXPECT_NE(verdict_reason(in).find("past the model's edges"), std::string::npos) << verdict_reason(in);
+}
+
+TEST(LocalizeStages, RaysGoThroughAModelPutWhereThePartIsNot) {
+  // With viewpoints: at the true pose hardly a ray reaches a point behind the model's surface; moved 30 mm,
+  // the model stands where the LiDAR saw the table and the plate, and the verdict's bar is passed.
+  const Scene sc = tube_scene(0.0015, 6);
+  std::vector<Vec3> vps;
+  const std::vector<Vec3> cloud = one_sided_scan(sc.mesh, sc.truth, -0.35, 0.0015, 6, &vps);
+  PartModel model;
+  build_part_model(sc.mesh, 0.0, PartModelSetting(), 0, model);
+  const TablePlane table = find_table_plane(cloud);
+  ASSERT_TRUE(table.found);
+  NoiseLimits lim;
+  lim.noise_m = table.noise_m;
+  lim.height_cut_m = std::max(0.005, 3.0 * table.noise_m);
+  const ScenePoints scene = scene_points(cloud, vps, table.plane, lim, model.height, 1.2);
+  ASSERT_FALSE(scene.ray_points.empty());
+  const Iso3 P0 = (scene.T_table_base * sc.truth).inverse();
+  const SeeThrough right = rays_through_model(scene, cloud, vps, model, P0);
+  EXPECT_GT(right.rays, 1000);
+  EXPECT_LT(right.share(), 0.05);
+  for (const Iso3& D : {planar_pose(0.03, 0.0, 0.0, 0.0), planar_pose(0.0, 0.03, 0.0, 0.0)}) {
+    const SeeThrough wrong = rays_through_model(scene, cloud, vps, model, D * P0);
+    EXPECT_GT(wrong.share(), VerdictSetting().max_see_through_share) << D.matrix();
+  }
+  VerdictInput in;
+  in.rays = true;
+  in.score.coverage = 1.0, in.score.inliers = in.score.region = 100;
+  in.see_through_share = 0.3;
+  EXPECT_NE(verdict_reason(in).find("saw through"), std::string::npos) << verdict_reason(in);
 }
 
 }  // namespace

@@ -1,0 +1,54 @@
+#include "perception/localize/see_through.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace weldtwin {
+namespace {
+
+// Whether the segment from a to b meets the box [lo, hi] (slab test).
+bool crosses_box(const Vec3& a, const Vec3& b, const Vec3& lo, const Vec3& hi) {
+  double t0 = 0.0, t1 = 1.0;
+  const Vec3 d = b - a;
+  for (int k = 0; k < 3; ++k) {
+    if (std::abs(d[k]) < 1e-12) {
+      if (a[k] < lo[k] || a[k] > hi[k]) return false;
+      continue;
+    }
+    double u = (lo[k] - a[k]) / d[k], v = (hi[k] - a[k]) / d[k];
+    if (u > v) std::swap(u, v);
+    t0 = std::max(t0, u);
+    t1 = std::min(t1, v);
+    if (t0 > t1) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+SeeThrough rays_through_model(const ScenePoints& scene, const std::vector<Vec3>& scan_base,
+                              const std::vector<Vec3>& viewpoints_base, const PartModel& model, const Iso3& P,
+                              const SeeThroughSetting& s) {
+  SeeThrough out;
+  if (!model.rays || scene.ray_points.empty() || viewpoints_base.size() != scan_base.size()) return out;
+  const Iso3 T = P * scene.T_table_base;  // base frame -> part frame
+  const Vec3 lo = model.lo - Vec3::Constant(s.box_margin_m), hi = model.hi + Vec3::Constant(s.box_margin_m);
+  const double behind = std::max(s.min_behind_m, s.behind_sigmas * scene.limits.noise_m);
+  std::vector<uint32_t> crossing;
+  for (uint32_t i : scene.ray_points) {
+    const Vec3 q = T * scan_base[i], o = T * viewpoints_base[i];
+    if (crosses_box(o, q, lo, hi)) crossing.push_back(i);
+  }
+  const size_t stride = std::max<size_t>(1, crossing.size() / static_cast<size_t>(std::max(1, s.max_rays)));
+  for (size_t k = 0; k < crossing.size(); k += stride) {
+    const uint32_t i = crossing[k];
+    const Vec3 q = T * scan_base[i], o = T * viewpoints_base[i];
+    const double range = (q - o).norm();
+    if (range <= behind) continue;
+    ++out.rays;
+    if (std::isfinite(model.rays->hit(o, (q - o) / range, 0.0, range - behind))) ++out.through;
+  }
+  return out;
+}
+
+}  // namespace weldtwin
