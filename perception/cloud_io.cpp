@@ -169,7 +169,7 @@ std::vector<Vec3> read_pcd(const std::string& path, size_t& dropped, std::vector
     if (!counts.empty()) {
       // Each value takes at least a byte of data (two in ascii: a digit and a space).
       const long long c = std::strtoll(counts[i].c_str(), nullptr, 10);
-      if (c < 1 || static_cast<unsigned long long>(c) > max_data_bytes / (format == "ascii" ? 2 : 1))
+      if (c < 1 || static_cast<unsigned long long>(c) > (max_data_bytes + 1) / (format == "ascii" ? 2 : 1))
         throw input_error(path, "malformed PCD header: COUNT " + counts[i] + " of field '" + names[i] +
                                     "' is more values than the file holds");
       f.count = static_cast<int>(c);
@@ -182,7 +182,7 @@ std::vector<Vec3> read_pcd(const std::string& path, size_t& dropped, std::vector
     f.column = column;
     L.record += static_cast<size_t>(f.size) * static_cast<size_t>(f.count);
     column += static_cast<size_t>(f.count);
-    if (format == "ascii" && column > body_bytes / 2)
+    if (format == "ascii" && column > (body_bytes + 1) / 2)
       throw input_error(path, "malformed PCD header: a point's values are more than the file holds");
     for (int k = 0; k < 6; ++k)
       if (f.name == wanted[k]) L.want[k] = static_cast<int>(i);
@@ -320,8 +320,11 @@ std::vector<Vec3> read_ply(const std::string& path, size_t& dropped, std::vector
       line >> format;
     } else if (key == "element") {
       Element e;
-      line >> e.name >> e.count;
-      if (!line) throw input_error(path, "malformed PLY header: element line");
+      std::string count;
+      line >> e.name >> count;
+      const auto r = std::from_chars(count.data(), count.data() + count.size(), e.count);
+      if (!line || count.empty() || r.ec != std::errc() || r.ptr != count.data() + count.size())
+        throw input_error(path, "malformed PLY header: element line '" + e.name + " " + count + "'");
       elements.push_back(e);
     } else if (key == "property") {
       if (elements.empty()) throw input_error(path, "malformed PLY header: property before any element");
@@ -362,6 +365,14 @@ std::vector<Vec3> read_ply(const std::string& path, size_t& dropped, std::vector
     if (vertex && (want[0] < 0 || want[1] < 0 || want[2] < 0))
       throw input_error(path, "the cloud has no x, y, z fields");
     const bool with_vp = vertex && viewpoints && want[3] >= 0 && want[4] >= 0 && want[5] >= 0;
+    // An element's record takes at least a byte per property (two in ascii): a count the rest of the file
+    // cannot hold is refused before anything is read; an element without properties holds no data at all.
+    size_t least = 0;
+    for (const Prop& p : e.props) least += ascii ? 2 : static_cast<size_t>(p.list ? p.count_size : p.size);
+    if (least == 0) continue;
+    if (e.count > (static_cast<size_t>(end - c) + 1) / least)  // + 1: the last value needs no separator
+      throw input_error(path, "truncated PLY data: the header claims " + std::to_string(e.count) + " " +
+                                  e.name + " elements, the file holds fewer");
     std::vector<double> values(e.props.size(), 0.0);
     for (size_t n = 0; n < e.count; ++n) {
       for (size_t i = 0; i < e.props.size(); ++i) {
