@@ -274,8 +274,11 @@ std::vector<Vec3> read_pcd(const std::string& path, size_t& dropped, std::vector
   return out;
 }
 
-// PLY: the vertex element's x, y, z (and vp_x, vp_y, vp_z if there); elements before it are skipped.
-std::vector<Vec3> read_ply(const std::string& path, size_t& dropped, std::vector<Vec3>* viewpoints) {
+// PLY: the vertex element's x, y, z (and vp_x, vp_y, vp_z if there); elements before it are skipped. With
+// `mesh`, every vertex is kept (none dropped: faces index them) and the face element's vertex_indices are
+// read too, polygons as fans of triangles.
+std::vector<Vec3> read_ply(const std::string& path, size_t& dropped, std::vector<Vec3>* viewpoints,
+                           std::vector<Eigen::Vector3i>* mesh = nullptr) {
   const std::string data = read_file(path);
   struct Prop {
     std::string name;
@@ -357,6 +360,12 @@ std::vector<Vec3> read_ply(const std::string& path, size_t& dropped, std::vector
   auto truncated = [&]() { return input_error(path, "truncated PLY data"); };
   for (const Element& e : elements) {
     const bool vertex = e.name == "vertex";
+    int index_list = -1;  // the face element's list of vertex indices
+    if (mesh && e.name == "face")
+      for (size_t i = 0; i < e.props.size(); ++i)
+        if (e.props[i].list && (e.props[i].name == "vertex_indices" || e.props[i].name == "vertex_index"))
+          index_list = static_cast<int>(i);
+    std::vector<double> polygon;
     int want[6] = {-1, -1, -1, -1, -1, -1};
     static const char* wanted[6] = {"x", "y", "z", "vp_x", "vp_y", "vp_z"};
     for (size_t i = 0; i < e.props.size(); ++i)
@@ -382,10 +391,13 @@ std::vector<Vec3> read_ply(const std::string& path, size_t& dropped, std::vector
           while (c < end && std::isspace(static_cast<unsigned char>(*c))) ++c;
           if (!parse_double(c, end, x)) throw truncated();
           if (p.list) {
-            for (long k = 0; k < static_cast<long>(x); ++k) {
+            if (!(x >= 0)) throw input_error(path, "malformed PLY data: a list of " + std::to_string(x));
+            polygon.clear();
+            for (double k = 0; k < x; ++k) {
               double item;
               while (c < end && std::isspace(static_cast<unsigned char>(*c))) ++c;
               if (!parse_double(c, end, item)) throw truncated();
+              if (static_cast<int>(i) == index_list) polygon.push_back(item);
             }
           } else {
             values[i] = x;
@@ -395,6 +407,11 @@ std::vector<Vec3> read_ply(const std::string& path, size_t& dropped, std::vector
           const double k = scalar(c, p.count_kind, p.count_size, big);
           c += p.count_size;
           if (k < 0 || (end - c) / p.size < k) throw truncated();
+          if (static_cast<int>(i) == index_list) {
+            polygon.clear();
+            for (size_t j = 0; j < static_cast<size_t>(k); ++j)
+              polygon.push_back(scalar(c + j * static_cast<size_t>(p.size), p.kind, p.size, big));
+          }
           c += static_cast<size_t>(k) * static_cast<size_t>(p.size);
         } else {
           if (end - c < p.size) throw truncated();
@@ -402,17 +419,38 @@ std::vector<Vec3> read_ply(const std::string& path, size_t& dropped, std::vector
           c += p.size;
         }
       }
+      if (index_list >= 0) {
+        for (size_t k = 2; k < polygon.size(); ++k) {
+          const double ids[3] = {polygon[0], polygon[k - 1], polygon[k]};
+          for (double id : ids)
+            if (!(id >= 0 && id < static_cast<double>(out.size())))
+              throw input_error(path, "malformed PLY mesh: face " + std::to_string(n) + " names vertex " +
+                                          std::to_string(static_cast<long long>(id)) + " of " +
+                                          std::to_string(out.size()));
+          mesh->emplace_back(static_cast<int>(ids[0]), static_cast<int>(ids[1]), static_cast<int>(ids[2]));
+        }
+      }
       if (!vertex) continue;
       auto at = [&](int k) { return values[static_cast<size_t>(want[k])]; };
+      if (mesh) {
+        out.emplace_back(at(0), at(1), at(2));
+        continue;
+      }
       collect(Vec3(at(0), at(1), at(2)), with_vp ? Vec3(at(3), at(4), at(5)) : Vec3::Zero(), with_vp, out,
               viewpoints, dropped);
     }
-    if (vertex) break;
+    if (vertex && !mesh) break;
   }
   return out;
 }
 
 }  // namespace
+
+std::vector<Vec3> read_ply_mesh(const std::string& path, std::vector<Eigen::Vector3i>& faces) {
+  size_t dropped = 0;
+  faces.clear();
+  return read_ply(path, dropped, nullptr, &faces);
+}
 
 void write_pcd(const std::string& path, const std::vector<Vec3>& points, bool ascii,
                const std::vector<Vec3>* viewpoints) {

@@ -21,4 +21,8 @@ void write_pcd(const std::string& path, const std::vector<Vec3>& points, bool as
 std::vector<Vec3> read_cloud(const std::string& path, size_t* dropped_non_finite = nullptr,
                              std::vector<Vec3>* viewpoints = nullptr);
 
+/// A PLY mesh (ascii, binary of either endian): every vertex, and the faces' vertex indices (polygons as fans
+/// of triangles), each checked against the vertices. Throws InputError naming the file.
+std::vector<Vec3> read_ply_mesh(const std::string& path, std::vector<Eigen::Vector3i>& faces);
+
 }  // namespace weldtwin

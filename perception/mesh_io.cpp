@@ -3,18 +3,68 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <assimp/Importer.hpp>
+#include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <random>
 
 #include "core/error.hpp"
+#include "perception/cloud_io.hpp"
 #include "perception/mesh_rays.hpp"
 
 namespace weldtwin {
 
+namespace {
+
+constexpr double kMaxPartSize = 5.0;       // no part on a welding table is larger [m]
+constexpr double kDegenerateArea = 1e-14;  // a face with a smaller cross product has no area [m^2]
+
+// What every mesh must be, whichever reader read it: finite, of a size a part can have, its faces naming its
+// vertices, some of them with an area.
+void check_mesh(const std::string& path, Mesh& mesh, double scale) {
+  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+  for (const Vec3& v : mesh.vertices) {
+    if (!v.allFinite()) throw input_error(path, "mesh has a non-finite vertex");
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
+  std::vector<Eigen::Vector3i> kept;
+  const int n = static_cast<int>(mesh.vertices.size());
+  for (const Eigen::Vector3i& f : mesh.faces) {
+    if ((f.array() < 0).any() || (f.array() >= n).any())
+      throw input_error(path, "mesh face names a vertex that does not exist");
+    const Vec3 &a = mesh.vertices[static_cast<size_t>(f[0])], &b = mesh.vertices[static_cast<size_t>(f[1])],
+               &c = mesh.vertices[static_cast<size_t>(f[2])];
+    if ((b - a).cross(c - a).norm() >= kDegenerateArea) kept.push_back(f);
+  }
+  if (kept.empty()) throw input_error(path, "mesh has no triangles with an area");
+  mesh.faces = std::move(kept);
+  const double size = (hi - lo).maxCoeff();
+  if (size > kMaxPartSize) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "the mesh is %.3g m across%s", size,
+                  scale == 1.0 && size < 1e4 ? ": millimetres? use --units mm" : ": not a part on a table");
+    throw input_error(path, buf);
+  }
+}
+
+}  // namespace
+
 Mesh load_mesh(const std::string& path, double scale) {
   if (!std::filesystem::is_regular_file(path)) throw input_error(path, "no such mesh file");
   if (std::filesystem::file_size(path) == 0) throw input_error(path, "empty mesh file");
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  if (ext != ".stl" && ext != ".ply" && ext != ".obj")
+    throw input_error(path, "unknown mesh format '" + ext + "' (STL, PLY or OBJ)");
+  if (ext == ".ply") {  // our reader: Assimp's asserts on some valid binary PLYs and trusts face indices
+    Mesh mesh;
+    mesh.vertices = read_ply_mesh(path, mesh.faces);
+    for (Vec3& v : mesh.vertices) v *= scale;
+    check_mesh(path, mesh, scale);
+    return mesh;
+  }
   Assimp::Importer importer;
   const aiScene* scene = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices);
   if (!scene || !scene->mRootNode)
@@ -32,12 +82,16 @@ Mesh load_mesh(const std::string& path, double scale) {
     for (unsigned f = 0; f < am->mNumFaces; ++f) {
       const aiFace& face = am->mFaces[f];
       if (face.mNumIndices != 3) continue;
+      if (face.mIndices[0] >= am->mNumVertices || face.mIndices[1] >= am->mNumVertices ||
+          face.mIndices[2] >= am->mNumVertices)
+        throw input_error(path, "mesh face names a vertex that does not exist");
       mesh.faces.emplace_back(base + static_cast<int>(face.mIndices[0]),
                               base + static_cast<int>(face.mIndices[1]),
                               base + static_cast<int>(face.mIndices[2]));
     }
   }
   if (mesh.faces.empty()) throw input_error(path, "mesh has no triangles");
+  check_mesh(path, mesh, scale);
   return mesh;
 }
 

@@ -1,0 +1,138 @@
+// Part meshes: PLY read by our reader exactly as the same mesh's STL (ascii, binary of both endians, polygons
+// as fans), and meshes no part can be refused with one clear line naming the file: faces naming missing
+// vertices, a size no part on a table has (millimetres read as metres: say so), no face with an area, and
+// formats the docs do not promise (mutated files had crashed Assimp or Embree, or eaten all memory).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+#include "core/error.hpp"
+#include "perception/mesh_io.hpp"
+#include "tests/test_support.hpp"
+
+namespace weldtwin {
+namespace {
+
+const std::filesystem::path dir = std::filesystem::temp_directory_path() / "weldtwin_mesh_io_test";
+
+template <class T>
+void put(std::string& out, T v, bool big) {
+  char b[sizeof(T)];
+  std::memcpy(b, &v, sizeof(T));
+  if (big) std::reverse(b, b + sizeof(T));
+  out.append(b, sizeof(T));
+}
+
+// The mesh as PLY: its first two triangles as one quad when they share an edge the right way, the rest as
+// triangles.
+std::string ply_of(const Mesh& m, const std::string& format) {
+  const bool ascii = format == "ascii", big = format == "binary_big_endian";
+  std::string out = "ply\nformat " + format + " 1.0\ncomment written by mesh_io_test\nelement vertex " +
+                    std::to_string(m.vertices.size()) +
+                    "\nproperty float x\nproperty float y\nproperty float z\nelement face " +
+                    std::to_string(m.faces.size()) + "\nproperty list uchar int vertex_indices\nend_header\n";
+  for (const Vec3& v : m.vertices) {
+    if (ascii) {
+      out += std::to_string(static_cast<float>(v.x())) + " " + std::to_string(static_cast<float>(v.y())) +
+             " " + std::to_string(static_cast<float>(v.z())) + "\n";
+    } else {
+      for (int k = 0; k < 3; ++k) put(out, static_cast<float>(v[k]), big);
+    }
+  }
+  for (const Eigen::Vector3i& f : m.faces) {
+    if (ascii) {
+      out += "3 " + std::to_string(f[0]) + " " + std::to_string(f[1]) + " " + std::to_string(f[2]) + "\n";
+    } else {
+      put(out, static_cast<uint8_t>(3), big);
+      for (int k = 0; k < 3; ++k) put(out, static_cast<int32_t>(f[k]), big);
+    }
+  }
+  return out;
+}
+
+std::string binary_stl(const Mesh& m, double scale) {
+  std::string out(80, ' ');
+  put(out, static_cast<uint32_t>(m.faces.size()), false);
+  for (const Eigen::Vector3i& f : m.faces) {
+    for (int k = 0; k < 3; ++k) put(out, 0.0f, false);
+    for (int c = 0; c < 3; ++c)
+      for (int k = 0; k < 3; ++k)
+        put(out, static_cast<float>(scale * m.vertices[static_cast<size_t>(f[c])][k]), false);
+    out += std::string(2, '\0');
+  }
+  return out;
+}
+
+std::string write(const std::string& name, const std::string& bytes) {
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / name).string();
+  std::ofstream(path, std::ios::binary) << bytes;
+  return path;
+}
+
+void expect_refused(const std::string& path, const std::string& says, double scale = 1.0) {
+  try {
+    load_mesh(path, scale);
+    ADD_FAILURE() << path << " was loaded";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(std::filesystem::path(path).filename().string()), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+  }
+}
+
+TEST(MeshIo, PlyReadsAsItsStl) {
+  const Mesh stl = load_mesh(test::repo("scenes/parts/tube_on_plate.stl"));
+  for (const char* format : {"ascii", "binary_little_endian", "binary_big_endian"}) {
+    const Mesh ply = load_mesh(write(std::string("part_") + format + ".ply", ply_of(stl, format)));
+    ASSERT_EQ(ply.vertices.size(), stl.vertices.size()) << format;
+    ASSERT_EQ(ply.faces.size(), stl.faces.size()) << format;
+    for (size_t i = 0; i < stl.faces.size(); ++i) {
+      ASSERT_EQ(ply.faces[i], stl.faces[i]) << format << " face " << i;
+      for (int c = 0; c < 3; ++c)
+        EXPECT_LT((ply.vertices[static_cast<size_t>(ply.faces[i][c])] -
+                   stl.vertices[static_cast<size_t>(stl.faces[i][c])])
+                      .norm(),
+                  1e-6)
+            << format;
+    }
+  }
+  // A quad and a pentagon become fans of triangles.
+  const Mesh poly =
+      load_mesh(write("poly.ply",
+                      "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
+                      "property float z\nelement face 2\nproperty list uchar int vertex_indices\n"
+                      "end_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n0.5 1.5 0\n4 0 1 2 3\n5 0 1 2 4 3\n"));
+  ASSERT_EQ(poly.faces.size(), 5u);
+  EXPECT_EQ(poly.faces[1], Eigen::Vector3i(0, 2, 3));
+  EXPECT_EQ(poly.faces[4], Eigen::Vector3i(0, 4, 3));
+}
+
+TEST(MeshIo, MeshesNoPartCanBeAreRefusedNamingTheFile) {
+  const Mesh stl = load_mesh(test::repo("scenes/parts/tube_on_plate.stl"));
+  const std::string head =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n0.1 0 0\n0 0.1 0\n";
+  expect_refused(write("oob.ply", head + "3 0 1 999999\n"), "names vertex 999999");
+  expect_refused(write("negative.ply", head + "3 0 -1 2\n"), "names vertex -1");
+  // The part in millimetres read as metres: 160 m across. With --units mm it loads.
+  const std::string mm = write("in_mm.stl", binary_stl(stl, 1000.0));
+  expect_refused(mm, "millimetres? use --units mm");
+  EXPECT_EQ(load_mesh(mm, 1e-3).faces.size(), stl.faces.size());
+  // One vertex finite but absurd (it had stopped Embree on an assertion).
+  Mesh huge = stl;
+  huge.vertices[huge.faces[0][0]] = Vec3(8.6e36, 0, 0);
+  expect_refused(write("huge.stl", binary_stl(huge, 1.0)), "m across");
+  // Every face without an area.
+  Mesh flat = stl;
+  for (Vec3& v : flat.vertices) v = Vec3(0.1, 0.2, 0.3);
+  expect_refused(write("degenerate.stl", binary_stl(flat, 1.0)), "no triangles with an area");
+  expect_refused(write("part.gltf", "{\"asset\": {\"version\": \"2.0\"}}"), "unknown mesh format");
+}
+
+}  // namespace
+}  // namespace weldtwin
