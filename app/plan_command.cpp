@@ -30,6 +30,12 @@ nlohmann::json read_json_file(const std::string& path, const std::string& what) 
 
 Iso3 read_pose(const std::string& path) {
   const nlohmann::json j = read_json_file(path, "pose");
+  if (j.is_object() && j.contains("found") && j["found"] == false) {
+    const std::string why =
+        j.contains("reason") && j["reason"].is_string() ? j["reason"].get<std::string>() : "";
+    throw input_error(path, "the pose says the part was not found" + (why.empty() ? "" : " (" + why + ")") +
+                                ": localize it again before planning");
+  }
   if (!j.contains("T_base_part")) throw input_error(path, "no field 'T_base_part'");
   const auto& m = j["T_base_part"];
   if (!m.is_array() || m.size() != 4) throw input_error(path, "T_base_part must be a 4x4 array");

@@ -6,6 +6,13 @@
 #include "core/yaml_util.hpp"
 
 namespace weldtwin {
+namespace {
+
+constexpr double kMinSpeed = 0.5e-3;         // slower than any weld travels [m/s]
+constexpr double kMaxSpeed = 0.2;            // faster than any arc weld travels [m/s]
+constexpr double kMaxTravelAngle = kPi / 4;  // [rad]
+
+}  // namespace
 
 double Seam::length_m() const {
   return kind == Kind::kLine ? (end - start).norm() : radius_m * std::abs(sweep_rad);
@@ -54,8 +61,8 @@ Seam parse_seam(const YAML::Node& node, size_t index, const std::string& file) {
     s.kind = Seam::Kind::kArc;
     s.center = yaml::vec3(node, "center", file);
     s.axis = yaml::vec3(node, "axis", file);
-    if (s.axis.norm() < 1e-9) throw input_error(file, where + "zero arc axis");
-    s.axis.normalize();
+    if (!s.axis.allFinite() || s.axis.stableNorm() < 1e-9) throw input_error(file, where + "zero arc axis");
+    s.axis.stableNormalize();
     s.sweep_rad = yaml::angle(node, "sweep", file);
     const Vec3 r = s.start - s.center;
     s.radius_m = (r - r.dot(s.axis) * s.axis).norm();
@@ -67,15 +74,17 @@ Seam parse_seam(const YAML::Node& node, size_t index, const std::string& file) {
   }
   if (s.length_m() < 1e-4) throw input_error(file, where + "zero-length seam");
   s.normal = yaml::vec3(node, "normal", file);
-  if (s.normal.norm() < 1e-9) throw input_error(file, where + "zero normal");
-  s.normal.normalize();
+  if (!s.normal.allFinite() || s.normal.stableNorm() < 1e-9)
+    throw input_error(file, where + "normal must be a finite, non-zero direction");
+  s.normal.stableNormalize();
   if (node["wall_normal"] && node["wall_normal"].IsScalar() && node["wall_normal"].Scalar() == "radial") {
     if (s.kind != Seam::Kind::kArc) throw input_error(file, where + "wall_normal 'radial' needs an arc seam");
     s.wall_normal_radial = true;
   } else {
     s.wall_normal = yaml::vec3(node, "wall_normal", file);
-    if (s.wall_normal.norm() < 1e-9) throw input_error(file, where + "zero wall_normal");
-    s.wall_normal.normalize();
+    if (!s.wall_normal.allFinite() || s.wall_normal.stableNorm() < 1e-9)
+      throw input_error(file, where + "wall_normal must be a finite, non-zero direction");
+    s.wall_normal.stableNormalize();
   }
   // n and m are made orthogonal to the travel direction by the planner; they must not be parallel to it.
   for (double f : {0.0, 0.5, 1.0}) {
@@ -87,6 +96,12 @@ Seam parse_seam(const YAML::Node& node, size_t index, const std::string& file) {
   }
   s.work_angle_rad = yaml::angle(node, "work_angle", file);
   s.travel_angle_rad = yaml::angle(node, "travel_angle", file);
+  // The torch points into the joint between the two members: a work angle outside 0-90 deg points it into
+  // one of them, a travel angle beyond 45 deg lays it along the seam.
+  if (!(s.work_angle_rad >= 0.0 && s.work_angle_rad <= kPi / 2))
+    throw input_error(file, where + "work_angle_deg must be within 0-90 (the torch between the members)");
+  if (!(std::abs(s.travel_angle_rad) <= kMaxTravelAngle))
+    throw input_error(file, where + "travel_angle_deg must be within -45 and +45");
   if (node["torch_roll_deg"] && node["torch_roll_deg"].IsScalar() &&
       node["torch_roll_deg"].Scalar() == "free") {
     s.torch_roll_rad.reset();
@@ -98,7 +113,8 @@ Seam parse_seam(const YAML::Node& node, size_t index, const std::string& file) {
   } else {
     s.speed_m_s = yaml::number(node, "speed_m_s", file);
   }
-  if (s.speed_m_s <= 0.0) throw input_error(file, where + "speed must be positive");
+  if (!(s.speed_m_s >= kMinSpeed && s.speed_m_s <= kMaxSpeed))
+    throw input_error(file, where + "speed_mm_s must be within 0.5-200 (welding travel speeds)");
   return s;
 }
 
@@ -136,8 +152,9 @@ PartSpec PartSpec::parse(const std::string& yaml_path) {
       c.grip = yaml::vec3(s, "grip", yaml_path);
       auto o = yaml::numbers(s, "outward", 2, yaml_path);
       c.outward = Eigen::Vector2d(o[0], o[1]);
-      if (c.outward.norm() < 1e-9) throw input_error(yaml_path, "clamp site with a zero outward direction");
-      c.outward.normalize();
+      if (!c.outward.allFinite() || c.outward.stableNorm() < 1e-9)
+        throw input_error(yaml_path, "clamp site with a zero outward direction");
+      c.outward.stableNormalize();
       part.clamp_sites.push_back(c);
     }
   }

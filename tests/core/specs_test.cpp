@@ -82,6 +82,53 @@ TEST(PartSpec, BadSpecsAreRejected) {
             std::string::npos);
 }
 
+// What mutated specs had been planned as "ok": a seam too slow to have weld samples (or eating all memory at
+// 0.001 mm/s), a torch pointing into the part (work angle 180 deg), a normal of 1e308 that normalised to
+// zero (the torch horizontal). Now the first two are refused naming the field, the third is the direction it
+// says.
+TEST(PartSpec, SeamsNoTorchCanWeldAreRejectedAndHugeDirectionsKept) {
+  const std::string stl = test::repo("scenes/parts/tube_on_plate.stl");
+  auto spec = [&](const std::string& normal, const std::string& work, const std::string& travel,
+                  const std::string& speed) {
+    return "name: p\nmodel: " + stl +
+           "\nheight_m: 0.1\nfootprint_m: [[0,0],[1,0],[0,1]]\nseams:\n  - name: s\n    start: [0, 0, 0]\n"
+           "    end: [0.05, 0, 0]\n    normal: " +
+           normal + "\n    wall_normal: [0, -1, 0]\n    work_angle_deg: " + work +
+           "\n    travel_angle_deg: " + travel + "\n    torch_roll_deg: free\n    speed_mm_s: " + speed +
+           "\n";
+  };
+  for (const char* speed : {"0.000001", "0.001", "1e308", "-8", "0"})
+    EXPECT_NE(error_of([&] {
+                PartSpec::load(write_temp("speed.yaml", spec("[0, 0, 1]", "45", "10", speed)));
+              }).find("speed_mm_s must be within"),
+              std::string::npos)
+        << speed;
+  for (const char* work : {"180", "-10", "91"})
+    EXPECT_NE(error_of([&] {
+                PartSpec::load(write_temp("work.yaml", spec("[0, 0, 1]", work, "10", "8")));
+              }).find("work_angle_deg must be within 0-90"),
+              std::string::npos)
+        << work;
+  EXPECT_NE(error_of([&] {
+              PartSpec::load(write_temp("travel.yaml", spec("[0, 0, 1]", "45", "60", "8")));
+            }).find("travel_angle_deg"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] {
+              PartSpec::load(write_temp("normal.yaml", spec("[0, 0, 0]", "45", "10", "8")));
+            }).find("normal must be a finite, non-zero direction"),
+            std::string::npos);
+  for (const char* bad : {"[0, 0, .nan]", "[0, .inf, 0]"})
+    EXPECT_NE(error_of([&] {
+                PartSpec::load(write_temp("normal.yaml", spec(bad, "45", "10", "8")));
+              }).find("must be finite"),
+              std::string::npos)
+        << bad;
+  const PartSpec huge = PartSpec::load(write_temp("huge.yaml", spec("[0, 0, 1e308]", "45", "10", "8")));
+  EXPECT_NEAR((huge.seams[0].normal - Vec3::UnitZ()).norm(), 0.0, 1e-12);
+  const PartSpec edge = PartSpec::load(write_temp("edge.yaml", spec("[0, 0, 1]", "90", "-45", "0.5")));
+  EXPECT_NEAR(edge.seams[0].work_angle_rad, kPi / 2, 1e-12);
+}
+
 TEST(CellSpec, DefaultCellLoadsAndBadOnesAreRejected) {
   const CellSpec cell = CellSpec::load(test::repo("scenes/cells/default.yaml"));
   EXPECT_TRUE(cell.part_pose.has_value());
