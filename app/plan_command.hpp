@@ -35,6 +35,10 @@ nlohmann::json plan_to_json(const WeldPlan& plan, const PartSpec& part, const Ro
 /// The samples of a plan JSON (t, q, tcp, seam, arc); throws InputError naming the file.
 WeldPlan read_plan(const std::string& path);
 
+/// Whether the plan read from `path` welds `part`: every sample's seam is one of the part's, and every seam
+/// of the part has arc-on samples. Throws InputError naming the file and the seam.
+void check_plan_for_part(const WeldPlan& plan, const PartSpec& part, const std::string& path);
+
 /// Returns the exit code: 0 planned, 3 a seam cannot be welded (the plan file says why). Throws InputError.
 int run_plan(const PlanCommand& cmd);
 

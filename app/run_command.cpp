@@ -344,6 +344,7 @@ int run_replay(const ReplayCommand& cmd) {
   const CellLayout layout = make_layout(cell, part, cmd.seed);
   const MujocoWorld world(cell, part, robot, layout);
   const WeldPlan plan = read_plan(cmd.plan);
+  check_plan_for_part(plan, part, cmd.plan);
   std::error_code ec;
   std::filesystem::create_directories(cmd.out, ec);
   if (ec) throw input_error(cmd.out, "cannot create the output directory: " + ec.message());

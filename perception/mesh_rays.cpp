@@ -115,17 +115,8 @@ double MeshRays::hit(const Vec3& o, const Vec3& d, double t_min, double t_max) c
 }
 
 double MeshRays::distance(const Vec3& p, double max_m) const {
-  RTCPointQuery query{};
-  query.x = static_cast<float>(p.x());
-  query.y = static_cast<float>(p.y());
-  query.z = static_cast<float>(p.z());
-  query.radius = static_cast<float>(max_m);
-  RTCPointQueryContext ctx;
-  rtcInitPointQueryContext(&ctx);
-  NearestQuery nearest{&impl_->vertices, &impl_->faces, p, max_m * max_m};
-  rtcPointQuery(impl_->scene, &query, &ctx, nearest_triangle, &nearest);
-  return nearest.best_sq < max_m * max_m ? std::sqrt(nearest.best_sq)
-                                         : std::numeric_limits<double>::infinity();
+  Vec3 at, normal;
+  return closest(p, max_m, at, normal) ? (at - p).norm() : std::numeric_limits<double>::infinity();
 }
 
 bool MeshRays::closest(const Vec3& p, double max_m, Vec3& point, Vec3& face_normal) const {

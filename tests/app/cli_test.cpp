@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <nlohmann/json.hpp>
 
 #include "app/calibrate_command.hpp"
 #include "tests/test_support.hpp"
@@ -176,6 +178,38 @@ TEST(Cli, ReplayJudgesAPlanInTheCellItWasMadeForAndNotElsewhere) {
   expect_bad_input(weldtwin("replay " + temp_file("empty_plan.json", "{\"samples\": []}")), "no samples");
   expect_bad_input(
       weldtwin("replay " + temp_file("bad_plan.json", "{\"samples\": [{\"t\": 0, \"q\": [1, 2]}]}")), "q[6]");
+  // The real plan mutated as a hostile file would (these had crashed the replay with free(), run it for 1e7
+  // s, or passed it "within 0.000 mm" with nothing welded): each refused naming what is wrong.
+  nlohmann::json good;
+  std::ifstream(plan) >> good;
+  auto mutated = [&](const std::string& name, const std::function<void(nlohmann::json&)>& change) {
+    nlohmann::json j = good;
+    change(j);
+    return temp_file(name, j.dump());
+  };
+  auto& samples = good["samples"];
+  ASSERT_GT(samples.size(), 100u);
+  expect_bad_input(
+      weldtwin("replay " + mutated("seam99.json", [](nlohmann::json& j) { j["samples"][10]["seam"] = 99; })),
+      "names seam 99");
+  expect_bad_input(
+      weldtwin("replay " + mutated("late.json", [](nlohmann::json& j) { j["samples"].back()["t"] = 1e7; })),
+      "s after the one before");
+  expect_bad_input(weldtwin("replay " + mutated("cold.json",
+                                                [](nlohmann::json& j) {
+                                                  for (auto& x : j["samples"]) x["arc"] = false;
+                                                })),
+                   "does not weld seam");
+  expect_bad_input(weldtwin("replay " + mutated("half.json",
+                                                [](nlohmann::json& j) {
+                                                  for (auto& x : j["samples"])
+                                                    if (x.value("seam", -1) >= 2)
+                                                      x["seam"] = -1, x["arc"] = false;
+                                                })),
+                   "does not weld seam");
+  expect_bad_input(
+      weldtwin("replay " + mutated("arc1.json", [](nlohmann::json& j) { j["samples"][5]["arc"] = 1; })),
+      "arc must be true or false");
 }
 
 // The switch on the command line: a sweep recorded by `weldtwin scan` as a ROS 1 and a ROS 2 bag, run through

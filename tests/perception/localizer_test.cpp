@@ -250,10 +250,11 @@ TEST(Localizer, BadInputIsRefusedCleanly) {
   const PoseEstimate pose = localize(sky, load_mesh(test::repo("scenes/parts/tube_tee.stl")));
   EXPECT_FALSE(pose.found);
   EXPECT_NE(pose.reason.find("table"), std::string::npos) << pose.reason;
-  // A mesh in millimetres, scaled: the same size as the one in metres.
+  // A mesh scaled as --units mm scales it: every vertex by the factor; scaled to 300 m it is no part.
   const Mesh m = load_mesh(test::repo("scenes/parts/tube_tee.stl"));
-  const Mesh mm = load_mesh(test::repo("scenes/parts/tube_tee.stl"), 1e3);
-  EXPECT_NEAR(mm.vertices[5].x(), 1e3 * m.vertices[5].x(), 1e-6);
+  const Mesh mm = load_mesh(test::repo("scenes/parts/tube_tee.stl"), 1e-3);
+  EXPECT_NEAR(mm.vertices[5].x(), 1e-3 * m.vertices[5].x(), 1e-12);
+  EXPECT_THROW(load_mesh(test::repo("scenes/parts/tube_tee.stl"), 1e3), InputError);
 }
 
 TEST(Localizer, RaysCastFromTheirViewpointsFindTheSquareTubeWhereItsPointsAloneDoNot) {
