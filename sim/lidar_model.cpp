@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 
 #include "core/error.hpp"
@@ -52,8 +53,29 @@ void LidarSetting::apply(const std::map<std::string, double>& overrides, const s
       throw input_error(source, "unknown lidar setting '" + key + "'");
     }
   }
-  if (turn_rate_hz <= 0 || sample_rate_hz < turn_rate_hz || min_range_m < 0 || max_range_m <= min_range_m)
-    throw input_error(source, "lidar: rates must be positive and min_range_m < max_range_m");
+  // What 2D scanning LiDARs do (an RPLIDAR A2 spins at 5-15 Hz and samples at 2-8 kHz): beyond it a value
+  // is a typo, and the sweep's memory grows with it (1e-9 Hz had asked for a vector beyond max_size).
+  auto within = [&](const char* name, double v, double lo, double hi, const char* what) {
+    if (!(v >= lo && v <= hi)) {
+      char buf[200];
+      std::snprintf(buf, sizeof buf, "lidar: %s must be within %g-%g (%s), not %g", name, lo, hi, what, v);
+      throw input_error(source, buf);
+    }
+  };
+  within("turn_rate_hz", turn_rate_hz, 0.5, 50.0, "a scanner's spin");
+  within("sample_rate_hz", sample_rate_hz, 100.0, 100000.0, "a scanner's sample rate");
+  within("samples per turn (sample_rate_hz / turn_rate_hz)", sample_rate_hz / turn_rate_hz, 36.0, 20000.0,
+         "10 deg to 0.018 deg steps");
+  within("max_range_m", max_range_m, 0.1, 100.0, "a scanner's reach");
+  within("min_range_m", min_range_m, 0.0, max_range_m, "below max_range_m");
+  within("noise_sigma_m", noise_sigma_m, 0.0, 0.1, "range noise");
+  within("noise_sigma_rel", noise_sigma_rel, 0.0, 0.1, "range noise per metre");
+  within("resolution_m", resolution_m, 0.0, 0.1, "range quantisation");
+  for (const auto& [name, p] :
+       std::map<std::string, double>{{"mixed_pixel_probability", mixed_pixel_probability},
+                                     {"random_dropout_probability", random_dropout_probability},
+                                     {"stray_return_probability", stray_return_probability}})
+    within(name.c_str(), p, 0.0, 1.0, "a probability");
   if (dropout_full_deg <= dropout_start_deg)
     throw input_error(source, "lidar: dropout_full_deg <= dropout_start_deg");
 }

@@ -2,6 +2,7 @@
 // independently of the ray casters), the part gets enough points, the noise model has the stated statistics,
 // and a seed reproduces a sweep bit for bit.
 #include "sim/sweep_sim.hpp"
+#include "core/error.hpp"
 
 #include <gtest/gtest.h>
 
@@ -307,6 +308,28 @@ TEST(SweepSim, RangeNoiseHasTheStatedSigmaAndSeedsReproduce) {
   EXPECT_GT(differ, b1.log.samples.size() / 4);
   EXPECT_GT(mixed, 10u);
   EXPECT_GT(dropped, 10u);
+}
+
+// LiDAR settings no scanner has are refused naming the setting (a turn rate of 1e-9 Hz had asked for a
+// vector beyond max_size in a sweep thread; 1e6 Hz had eaten all memory).
+TEST(LidarSetting, ValuesNoScannerHasAreRefused) {
+  const std::vector<std::pair<std::string, double>> bad = {
+      {"turn_rate_hz", 1e-9},         {"turn_rate_hz", 1e6},
+      {"sample_rate_hz", 1e9},        {"sample_rate_hz", 5.0},
+      {"max_range_m", 1e6},           {"noise_sigma_m", -0.001},
+      {"mixed_pixel_probability", 2}, {"stray_return_probability", -1}};
+  for (const auto& [key, value] : bad) {
+    LidarSetting s;
+    try {
+      s.apply({{key, value}}, "cell.yaml");
+      ADD_FAILURE() << key << " = " << value << " was taken";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("cell.yaml"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+    }
+  }
+  LidarSetting fine;  // an A2's own figures pass
+  EXPECT_NO_THROW(fine.apply({{"turn_rate_hz", 15.0}, {"sample_rate_hz", 8000.0}}, "cell.yaml"));
 }
 
 }  // namespace
