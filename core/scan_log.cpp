@@ -110,6 +110,10 @@ ScanLog ScanLog::read(const std::string& path) {
   if (log.joint_names.size() != 6) throw input_error(path, "scan log must name 6 joints");
 
   const std::string body((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  // Each count bounded by the body before the sum is taken: counts near 2^64 / bytes wrap the sum round to
+  // the body's size.
+  if (nt > body.size() / kTurnBytes || ns > body.size() / kSampleBytes || nj > body.size() / kJointBytes)
+    throw input_error(path, "truncated scan log: the header promises more records than the body holds");
   const size_t expected = nt * kTurnBytes + ns * kSampleBytes + nj * kJointBytes;
   if (body.size() != expected)
     throw input_error(path, "truncated or padded scan log: body has " + std::to_string(body.size()) +

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -63,6 +65,27 @@ TEST(ScanLog, MalformedFilesAreInputErrors) {
   std::ofstream(temp("wt_header.scanlog")) << "WELDTWIN-SCANLOG 1\n{\"robot\": 3\n";
   EXPECT_THROW(ScanLog::read(temp("wt_header.scanlog")), InputError);
   EXPECT_THROW(ScanLog::read(temp("wt_missing.scanlog")), InputError);
+}
+
+// A count that wraps the size check (num_turns + 2^60: times 16 bytes, the same sum modulo 2^64) had passed
+// it and then asked for 2^60 turns (an internal error); now refused as the header promising too much.
+TEST(ScanLog, CountsThatWrapTheSizeCheckAreRefused) {
+  const std::string path = temp("wt_wrap.scanlog");
+  random_log(4).write(path);
+  std::ifstream in(path, std::ios::binary);
+  std::string magic, header;
+  std::getline(in, magic);
+  std::getline(in, header);
+  const std::string body((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  nlohmann::json h = nlohmann::json::parse(header);
+  h["num_turns"] = h["num_turns"].get<uint64_t>() + (uint64_t{1} << 60);
+  std::ofstream(path, std::ios::binary) << magic << "\n" << h.dump() << "\n" << body;
+  try {
+    ScanLog::read(path);
+    FAIL() << "read";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("promises more records"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
