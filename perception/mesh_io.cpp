@@ -67,8 +67,15 @@ Mesh load_mesh(const std::string& path, double scale) {
   }
   Assimp::Importer importer;
   const aiScene* scene = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices);
-  if (!scene || !scene->mRootNode)
-    throw input_error(path, std::string("cannot read the mesh: ") + importer.GetErrorString());
+  if (!scene || !scene->mRootNode) {
+    // Assimp's message may quote kilobytes of the file: one line, cut short.
+    constexpr size_t kMaxReason = 160;
+    std::string why = importer.GetErrorString();
+    for (char& ch : why)
+      if (ch == '\n' || ch == '\r' || ch == '\t') ch = ' ';
+    if (why.size() > kMaxReason) why = why.substr(0, kMaxReason) + "...";
+    throw input_error(path, "cannot read the mesh: " + why);
+  }
   Mesh mesh;
   for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
     const aiMesh* am = scene->mMeshes[m];

@@ -132,6 +132,16 @@ TEST(MeshIo, MeshesNoPartCanBeAreRefusedNamingTheFile) {
   for (Vec3& v : flat.vertices) v = Vec3(0.1, 0.2, 0.3);
   expect_refused(write("degenerate.stl", binary_stl(flat, 1.0)), "no triangles with an area");
   expect_refused(write("part.gltf", "{\"asset\": {\"version\": \"2.0\"}}"), "unknown mesh format");
+  // A malformed ascii STL: the reason is one short line, not the file pasted into it.
+  std::string junk = "solid junk\n";
+  for (int i = 0; i < 400; ++i) junk += "facet normal 0 0 1 outer loop vertex 1 2 x\n";
+  try {
+    load_mesh(write("junk.stl", junk));
+    ADD_FAILURE() << "junk.stl was loaded";
+  } catch (const InputError& e) {
+    EXPECT_LT(std::string(e.what()).size(), 400u) << e.what();
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos);
+  }
 }
 
 }  // namespace
