@@ -180,7 +180,10 @@ int run_plan(const PlanCommand& cmd) {
   const PlanSetting setting;
   const WeldPlan plan = plan_welds(part, T_base_part, robot, setting);
 
-  const nlohmann::json out = plan_to_json(plan, part, robot, setting);
+  nlohmann::json out = plan_to_json(plan, part, robot, setting);
+  // This plan is checked against the joint limits only: the cell's table, clamps and part are checked when
+  // the plan is replayed (weldtwin replay, weldtwin run).
+  out["collisions_checked"] = false;
   std::ofstream(cmd.out) << out.dump() << '\n';
   if (!cmd.csv.empty()) {
     std::ofstream csv(cmd.csv);
@@ -197,6 +200,10 @@ int run_plan(const PlanCommand& cmd) {
                  plan.seams.size(), plan.duration_s(), plan.samples.size(), setting.sample_hz,
                  cmd.out.c_str());
     for (const auto& n : plan.notes) std::fprintf(stderr, "plan: note: %s\n", n.c_str());
+    std::fprintf(stderr,
+                 "plan: note: collisions not checked (joint limits only): replay it in the cell "
+                 "(weldtwin replay %s) before it goes to a robot\n",
+                 cmd.out.c_str());
   }
   if (!plan.ok()) {
     std::fprintf(stderr, "weldtwin: %s: %s\n", cmd.part.c_str(), plan.problems.front().c_str());

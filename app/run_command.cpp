@@ -333,6 +333,8 @@ int run_job(const RunCommand& cmd) {
   }
   std::printf("FAIL: %s; report %s/report.html (%.1f s)\n", run.reasons.front().c_str(), cmd.out.c_str(),
               total);
+  // The reason on stderr too, naming the input: -q silences progress, not the verdict.
+  std::fprintf(stderr, "weldtwin: %s: %s\n", cell_or_default(cmd.cell).c_str(), run.reasons.front().c_str());
   return 3;
 }
 
@@ -373,6 +375,7 @@ int run_replay(const ReplayCommand& cmd) {
     return 0;
   }
   std::printf("FAIL: %s; report %s/report.html\n", run.reasons.front().c_str(), cmd.out.c_str());
+  std::fprintf(stderr, "weldtwin: %s: %s\n", cmd.plan.c_str(), run.reasons.front().c_str());
   return 3;
 }
 

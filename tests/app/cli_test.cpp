@@ -100,6 +100,14 @@ TEST(Cli, PlanRefusesBadInputAndUnreachableSeams) {
   const std::string plan((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(plan.find("\"ok\":false"), std::string::npos);
   EXPECT_NE(plan.find("unreachable"), std::string::npos);
+  // The plan command checks no collisions and says so in the file (the replay in the cell checks them).
+  EXPECT_NE(plan.find("\"collisions_checked\":false"), std::string::npos);
+  // A pose that says the part was not found is not planned.
+  expect_bad_input(weldtwin("plan --part " + part + " --pose " +
+                            temp_file("not_found.json", "{\"found\": false, \"reason\": \"ambiguous\", " +
+                                                            pose(0.46, 0.0).substr(1)) +
+                            " --out " + out),
+                   "the pose says the part was not found (ambiguous)");
   // Bad input: exit 2, one line naming the file.
   expect_bad_input(weldtwin("plan --part " + part + " --pose " +
                             temp_file("broken.json", "{\"T_base_part\": [[1,0") + " --out " + out),
@@ -171,6 +179,8 @@ TEST(Cli, ReplayJudgesAPlanInTheCellItWasMadeForAndNotElsewhere) {
   const CliRun other = weldtwin("replay " + plan + " " + test::repo("scenes/cells/default.yaml") +
                                 " --seed 3 --no-renders -q --out " + (dir / "other").string());
   EXPECT_EQ(other.code, 3);
+  // -q silences progress, not the verdict: one line on stderr naming the plan.
+  EXPECT_NE(other.err.find("weldtwin: " + plan + ": replay: "), std::string::npos) << other.err;
   std::ifstream in(dir / "other" / "report.json");
   const std::string report((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(report.find("\"verdict\": \"FAIL\""), std::string::npos);
