@@ -2,6 +2,8 @@
 
 #include <console_bridge/console.h>
 #include <urdf_parser/urdf_parser.h>
+
+#include <algorithm>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -59,8 +61,43 @@ RobotModel RobotModel::load(const std::string& urdf_path) {
   return from_string(ss.str(), urdf_path);
 }
 
+namespace {
+
+// How deep the XML's elements nest (comments, declarations and CDATA skipped; a rough count is enough):
+// the XML parser under urdfdom recurses per level, so a file nested 100,000 deep overflowed the stack.
+size_t xml_depth(const std::string& xml) {
+  size_t depth = 0, deepest = 0;
+  for (size_t i = xml.find('<'); i != std::string::npos; i = xml.find('<', i + 1)) {
+    if (i + 1 >= xml.size()) break;
+    const char c = xml[i + 1];
+    if (c == '!' || c == '?') {
+      const size_t end = xml.compare(i, 4, "<!--") == 0 ? xml.find("-->", i) : xml.find('>', i);
+      if (end == std::string::npos) break;
+      i = end;
+      continue;
+    }
+    if (c == '/') {
+      depth -= depth > 0;
+      continue;
+    }
+    const size_t end = xml.find('>', i);
+    if (end == std::string::npos) break;
+    if (xml[end - 1] != '/') deepest = std::max(deepest, ++depth);
+    i = end;
+  }
+  return deepest;
+}
+
+constexpr size_t kMaxUrdfDepth = 64;  // a robot description nests a handful of levels
+
+}  // namespace
+
 RobotModel RobotModel::from_string(const std::string& urdf_xml, const std::string& source) {
   if (urdf_xml.find_first_not_of(" \t\r\n") == std::string::npos) throw input_error(source, "empty URDF");
+  if (const size_t depth = xml_depth(urdf_xml); depth > kMaxUrdfDepth)
+    throw input_error(source, "elements nested " + std::to_string(depth) +
+                                  " deep (a robot description has a "
+                                  "few levels): not a URDF");
   // urdfdom reports parse errors on stderr through console_bridge; weldtwin reports them itself, in one line.
   console_bridge::setLogLevel(console_bridge::CONSOLE_BRIDGE_LOG_NONE);
   urdf::ModelInterfaceSharedPtr urdf = urdf::parseURDF(urdf_xml);

@@ -69,5 +69,25 @@ TEST(RobotModel, BadFilesAreInputErrorsNamingTheFile) {
   }
 }
 
+// A description nested 100,000 deep had overflowed the XML parser's stack; now refused before parsing.
+// Comments and self-closing elements do not count as levels.
+TEST(RobotModel, DeeplyNestedXmlIsRefusedBeforeParsing) {
+  std::string deep = "<?xml version=\"1.0\"?>\n<robot name=\"r\">";
+  for (int i = 0; i < 5000; ++i) deep += "<link name=\"l\">";
+  for (int i = 0; i < 5000; ++i) deep += "</link>";
+  deep += "</robot>";
+  try {
+    RobotModel::from_string(deep, "deep.urdf");
+    FAIL() << "parsed";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("deep.urdf: elements nested 5001 deep"), std::string::npos)
+        << e.what();
+  }
+  std::string flat = "<robot name=\"r\"><!-- ";
+  for (int i = 0; i < 100; ++i) flat += "<a>";  // in a comment: no levels
+  flat += " --><link name=\"base\"/></robot>";
+  EXPECT_NO_THROW(RobotModel::from_string(flat, "flat.urdf"));
+}
+
 }  // namespace
 }  // namespace weldtwin
