@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
+
 #include "core/error.hpp"
 #include "tests/test_support.hpp"
 
@@ -83,10 +85,13 @@ TEST(RobotModel, DeeplyNestedXmlIsRefusedBeforeParsing) {
     EXPECT_NE(std::string(e.what()).find("deep.urdf: elements nested 5001 deep"), std::string::npos)
         << e.what();
   }
-  std::string flat = "<robot name=\"r\"><!-- ";
-  for (int i = 0; i < 100; ++i) flat += "<a>";  // in a comment: no levels
-  flat += " --><link name=\"base\"/></robot>";
-  EXPECT_NO_THROW(RobotModel::from_string(flat, "flat.urdf"));
+  // The shipped arm with a comment full of opening tags: comments are no levels.
+  std::ifstream in(test::repo("scenes/robots/aubo_i5.urdf"));
+  std::string arm((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string comment = "<!-- ";
+  for (int i = 0; i < 100; ++i) comment += "<a>";
+  arm.insert(arm.find('>', arm.find("<robot")) + 1, comment + " -->");
+  EXPECT_EQ(RobotModel::from_string(arm, "commented.urdf").joint_names().size(), 6u);
 }
 
 }  // namespace
