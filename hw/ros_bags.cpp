@@ -293,6 +293,58 @@ std::string find_db3(const std::string& path) {
 
 }  // namespace
 
+namespace {
+
+// The lengths a ROS 1 LaserScan or JointState declares, checked against the message's own bytes before
+// rosbag deserialises it (which allocates whatever a length says: 2^30 ranges took 5 GiB in 3 s, 2^31 an
+// internal error).
+class Ros1Lengths {
+ public:
+  Ros1Lengths(const rosbag::MessageInstance& m, const std::string& file) : file_(file), buf_(m.size()) {
+    ros::serialization::OStream os(buf_.data(), static_cast<uint32_t>(buf_.size()));
+    m.write(os);
+  }
+  void laser_scan() {
+    header();
+    skip(7 * 4);  // angle_min, angle_max, angle_increment, time_increment, scan_time, range_min, range_max
+    array(4, "ranges");
+    array(4, "intensities");
+  }
+  void joint_state() {
+    header();
+    const uint32_t names = count(4, "name");
+    for (uint32_t k = 0; k < names; ++k) array(1, "name");
+    for (const char* what : {"position", "velocity", "effort"}) array(8, what);
+  }
+
+ private:
+  void header() {
+    skip(12);  // seq, stamp
+    array(1, "frame_id");
+  }
+  void skip(size_t n) {
+    if (buf_.size() - at_ < n) throw input_error(file_, "a message shorter than its fields");
+    at_ += n;
+  }
+  // An array's count, checked to fit at `least` bytes an element.
+  uint32_t count(size_t least, const char* what) {
+    skip(4);
+    uint32_t n = 0;
+    std::memcpy(&n, buf_.data() + at_ - 4, 4);
+    if (n > (buf_.size() - at_) / least)
+      throw input_error(file_, std::string("a message whose '") + what + "' claims " + std::to_string(n) +
+                                   " elements, more than its " + std::to_string(buf_.size()) + " bytes hold");
+    return n;
+  }
+  void array(size_t element, const char* what) { skip(count(element, what) * element); }
+
+  std::string file_;
+  std::vector<uint8_t> buf_;
+  size_t at_ = 0;
+};
+
+}  // namespace
+
 ScanLog read_ros1_bag(const std::string& path, const RobotModel& robot, const BagTopics& topics) {
   if (!std::filesystem::exists(path)) throw input_error(path, "no such file");
   std::vector<ScanMsg> scans;
@@ -305,6 +357,7 @@ ScanLog read_ros1_bag(const std::string& path, const RobotModel& robot, const Ba
       const std::string& type = m.getDataType();
       if (type == "sensor_msgs/LaserScan" && (scan_topic.empty() || scan_topic == m.getTopic())) {
         scan_topic = m.getTopic();
+        Ros1Lengths(m, path).laser_scan();
         const auto s = m.instantiate<sensor_msgs::LaserScan>();
         if (!s) continue;
         ScanMsg x;
@@ -319,6 +372,7 @@ ScanLog read_ros1_bag(const std::string& path, const RobotModel& robot, const Ba
         scans.push_back(std::move(x));
       } else if (type == "sensor_msgs/JointState" && (joint_topic.empty() || joint_topic == m.getTopic())) {
         joint_topic = m.getTopic();
+        Ros1Lengths(m, path).joint_state();
         const auto j = m.instantiate<sensor_msgs::JointState>();
         if (!j) continue;
         JointMsg x;
@@ -378,11 +432,15 @@ ScanLog read_ros2_bag(const std::string& path, const RobotModel& robot, const Ba
     if (sqlite3_prepare_v2(db.db, "SELECT id, name, type, serialization_format FROM topics", -1, &st.s,
                            nullptr) != SQLITE_OK)
       throw input_error(file, "not a ROS 2 bag (no topics table)");
-    while (sqlite3_step(st.s) == SQLITE_ROW) {
+    int rc = SQLITE_ROW;
+    while ((rc = sqlite3_step(st.s)) == SQLITE_ROW) {
       const int id = sqlite3_column_int(st.s, 0);
-      const std::string name = reinterpret_cast<const char*>(sqlite3_column_text(st.s, 1));
-      const std::string type = reinterpret_cast<const char*>(sqlite3_column_text(st.s, 2));
-      const std::string format = reinterpret_cast<const char*>(sqlite3_column_text(st.s, 3));
+      auto text = [&](int col) {
+        const unsigned char* t = sqlite3_column_text(st.s, col);
+        if (!t) throw input_error(file, "a topic without a name, type or serialization format");
+        return std::string(reinterpret_cast<const char*>(t));
+      };
+      const std::string name = text(1), type = text(2), format = text(3);
       if (format != "cdr") continue;
       if (type == "sensor_msgs/msg/LaserScan" && scan_id < 0 && (topics.scan.empty() || topics.scan == name))
         scan_id = id;
@@ -390,6 +448,8 @@ ScanLog read_ros2_bag(const std::string& path, const RobotModel& robot, const Ba
           (topics.joints.empty() || topics.joints == name))
         joint_id = id;
     }
+    if (rc != SQLITE_DONE)
+      throw input_error(file, std::string("the topics cannot be read: ") + sqlite3_errmsg(db.db));
   }
   std::vector<ScanMsg> scans;
   std::vector<JointMsg> joints;
@@ -397,7 +457,8 @@ ScanLog read_ros2_bag(const std::string& path, const RobotModel& robot, const Ba
   if (sqlite3_prepare_v2(db.db, "SELECT topic_id, data FROM messages ORDER BY timestamp", -1, &st.s,
                          nullptr) != SQLITE_OK)
     throw input_error(file, "not a ROS 2 bag (no messages table)");
-  while (sqlite3_step(st.s) == SQLITE_ROW) {
+  int rc = SQLITE_ROW;
+  while ((rc = sqlite3_step(st.s)) == SQLITE_ROW) {
     const int topic = sqlite3_column_int(st.s, 0);
     if (topic != scan_id && topic != joint_id) continue;
     const auto* data = static_cast<const uint8_t*>(sqlite3_column_blob(st.s, 1));
@@ -425,6 +486,10 @@ ScanLog read_ros2_bag(const std::string& path, const RobotModel& robot, const Ba
       joints.push_back(std::move(m));
     }
   }
+  // A corrupt page ends the loop with an error, not with the last row: a shorter sweep must not pass as
+  // whole.
+  if (rc != SQLITE_DONE)
+    throw input_error(file, std::string("the messages cannot all be read: ") + sqlite3_errmsg(db.db));
   return to_scan_log(std::move(scans), std::move(joints), robot, "rosbag2", file);
 }
 

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
@@ -151,6 +152,44 @@ TEST(ScanSource, BadInputIsRefusedNamingTheFile) {
     sqlite3_close(db);
   }
   refused("log:" + (d / "cut").string(), "truncated CDR");
+  // A ROS 2 topic with no name (a NULL in the database had been dereferenced).
+  fs::remove_all(d / "noname");
+  write_ros2_bag((d / "noname").string(), r.live);
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open((d / "noname" / "noname_0.db3").string().c_str(), &db), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db,
+                           "CREATE TABLE t AS SELECT * FROM topics; DROP TABLE topics; "
+                           "CREATE TABLE topics AS SELECT * FROM t; UPDATE topics SET name = NULL",
+                           nullptr, nullptr, nullptr),
+              SQLITE_OK);
+    sqlite3_close(db);
+  }
+  refused("log:" + (d / "noname").string(), "a topic without a name");
+  // A ROS 1 LaserScan whose ranges claim 2^30 floats in a message of a few kilobytes (rosbag had allocated
+  // them: 5 GiB in 3 s): refused before it is deserialised.
+  const std::string bag = (d / "huge_ranges.bag").string();
+  write_ros1_bag(bag, r.live);
+  std::string bytes;
+  {
+    std::ifstream in(bag, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const std::string& frame = r.live.lidar_frame;
+  std::string needle(4, '\0');
+  const uint32_t len = static_cast<uint32_t>(frame.size());
+  std::memcpy(needle.data(), &len, 4);
+  needle += frame;
+  const size_t at = bytes.find(needle);
+  ASSERT_NE(at, std::string::npos);
+  const size_t count_at = at + needle.size() + 7 * 4;  // past the frame and the seven floats
+  uint32_t ranges = 0;
+  std::memcpy(&ranges, bytes.data() + count_at, 4);
+  ASSERT_EQ(ranges, r.live.turns.front().count);  // the first scan's ranges, as written
+  const uint32_t huge = 1u << 30;
+  std::memcpy(bytes.data() + count_at, &huge, 4);
+  std::ofstream(bag, std::ios::binary) << bytes;
+  refused("log:" + bag, "claims 1073741824 elements");
 }
 
 }  // namespace
