@@ -343,10 +343,63 @@ class Ros1Lengths {
   size_t at_ = 0;
 };
 
+// The top-level records of a ROS 1 bag (format 2.0: header length, header fields name=value, data length,
+// data), each within the file and each with an op, stepped over as rosbag steps over them (an index record by
+// its entry count, 12 bytes an entry, not by its data length): rosbag trusts the count, and a count one too
+// large had crashed it; here the record after it no longer lines up.
+void check_ros1_records(const std::string& path) {
+  constexpr uint64_t kIndexEntryBytes = 12;
+  std::ifstream in(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  static const std::string kMagic = "#ROSBAG V2.0\n";
+  if (bytes.compare(0, kMagic.size(), kMagic) != 0) return;  // rosbag says what it is not
+  auto u32 = [&](size_t at) {
+    uint32_t v = 0;
+    std::memcpy(&v, bytes.data() + at, 4);
+    return v;
+  };
+  for (size_t at = kMagic.size(); at < bytes.size();) {
+    if (bytes.size() - at < 4) throw input_error(path, "a bag record cut short");
+    const size_t header_len = u32(at);
+    if (bytes.size() - at - 4 < header_len + 4) throw input_error(path, "a bag record header past the end");
+    const size_t header = at + 4, data_len = u32(header + header_len);
+    const size_t data = header + header_len + 4;
+    if (bytes.size() - data < data_len) throw input_error(path, "a bag record's data past the end");
+    std::map<std::string, std::string> fields;
+    for (size_t f = header; f < header + header_len;) {
+      if (header + header_len - f < 4) throw input_error(path, "a bag record header field cut short");
+      const size_t len = u32(f);
+      if (header + header_len - f - 4 < len)
+        throw input_error(path, "a bag record header field past its end");
+      const std::string field = bytes.substr(f + 4, len);
+      const size_t eq = field.find('=');
+      if (eq != std::string::npos) fields[field.substr(0, eq)] = field.substr(eq + 1);
+      f += 4 + len;
+    }
+    const auto op = fields.find("op");
+    if (op != fields.end() && op->second.size() == 1 && op->second[0] == 0x04) {  // index data
+      const auto count = fields.find("count");
+      uint32_t n = 0;
+      if (count == fields.end() || count->second.size() != 4)
+        throw input_error(path, "an index record without a count");
+      std::memcpy(&n, count->second.data(), 4);
+      // rosbag reads count entries whatever the record's data length says (a real bag's is wrong): the next
+      // record starts after them, and must be one.
+      if (static_cast<uint64_t>(n) * kIndexEntryBytes > bytes.size() - data)
+        throw input_error(path, "an index record claims " + std::to_string(n) + " entries past the end");
+      at = data + n * kIndexEntryBytes;
+      continue;
+    }
+    if (op == fields.end()) throw input_error(path, "a bag record without an op: the records do not line up");
+    at = data + data_len;
+  }
+}
+
 }  // namespace
 
 ScanLog read_ros1_bag(const std::string& path, const RobotModel& robot, const BagTopics& topics) {
   if (!std::filesystem::exists(path)) throw input_error(path, "no such file");
+  check_ros1_records(path);
   std::vector<ScanMsg> scans;
   std::vector<JointMsg> joints;
   std::string scan_topic = topics.scan, joint_topic = topics.joints;

@@ -190,6 +190,24 @@ TEST(ScanSource, BadInputIsRefusedNamingTheFile) {
   std::memcpy(bytes.data() + count_at, &huge, 4);
   std::ofstream(bag, std::ios::binary) << bytes;
   refused("log:" + bag, "claims 1073741824 elements");
+  // One index record's entry count raised by 1 (rosbag had read past the record and crashed): the records no
+  // longer line up, refused before rosbag opens the file.
+  const std::string index_bag = (d / "index_count.bag").string();
+  write_ros1_bag(index_bag, r.live);
+  {
+    std::ifstream in(index_bag, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const size_t op = bytes.find(std::string("op=\x04", 4));
+  ASSERT_NE(op, std::string::npos);
+  const size_t count = bytes.rfind("count=", op);
+  ASSERT_TRUE(count != std::string::npos && op - count < 64);
+  uint32_t entries = 0;
+  std::memcpy(&entries, bytes.data() + count + 6, 4);
+  ++entries;
+  std::memcpy(bytes.data() + count + 6, &entries, 4);
+  std::ofstream(index_bag, std::ios::binary) << bytes;
+  refused("log:" + index_bag, "index_count.bag");
 }
 
 }  // namespace
