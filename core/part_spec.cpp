@@ -162,6 +162,10 @@ PartSpec PartSpec::parse(const std::string& yaml_path) {
   const YAML::Node seams = root["seams"];
   if (!seams || !seams.IsSequence() || seams.size() == 0)
     throw input_error(yaml_path, "field 'seams' must list at least one seam");
+  constexpr size_t kMaxSeams = 200;  // a part welded in one clamping has tens of seams, not thousands
+  if (seams.size() > kMaxSeams)
+    throw input_error(yaml_path, "field 'seams' lists " + std::to_string(seams.size()) + " seams; at most " +
+                                     std::to_string(kMaxSeams) + " are welded in one clamping");
   for (size_t i = 0; i < seams.size(); ++i) part.seams.push_back(parse_seam(seams[i], i, yaml_path));
   return part;
 }

@@ -61,6 +61,14 @@ SweepProgram::SweepProgram(std::string source, JointVector start, std::vector<Sw
     end_times_.push_back(t);
     from = m.to;
   }
+  // A sweep's log grows with its length (8000 samples a second): a program of hours is a typo, not a sweep.
+  constexpr double kMaxSweepSeconds = 900.0;
+  if (t > kMaxSweepSeconds) {
+    std::ostringstream os;
+    os << "the sweep lasts " << t << " s (" << moves_.size() << " moves); at most " << kMaxSweepSeconds
+       << " s (the eight-pass default takes 181 s)";
+    throw input_error(source_, os.str());
+  }
 }
 
 SweepProgram SweepProgram::load(const std::string& yaml_path, const RobotModel& robot) {

@@ -125,6 +125,12 @@ TEST(PartSpec, SeamsNoTorchCanWeldAreRejectedAndHugeDirectionsKept) {
         << bad;
   const PartSpec huge = PartSpec::load(write_temp("huge.yaml", spec("[0, 0, 1e308]", "45", "10", "8")));
   EXPECT_NEAR((huge.seams[0].normal - Vec3::UnitZ()).norm(), 0.0, 1e-12);
+  // 2000 seams (all memory, had been): refused by their number.
+  std::string many = spec("[0, 0, 1]", "45", "10", "8");
+  const std::string one = many.substr(many.find("  - name: s"));
+  for (int i = 0; i < 1999; ++i) many += one;
+  EXPECT_NE(error_of([&] { PartSpec::load(write_temp("many.yaml", many)); }).find("lists 2000 seams"),
+            std::string::npos);
   const PartSpec edge = PartSpec::load(write_temp("edge.yaml", spec("[0, 0, 1]", "90", "-45", "0.5")));
   EXPECT_NEAR(edge.seams[0].work_angle_rad, kPi / 2, 1e-12);
 }

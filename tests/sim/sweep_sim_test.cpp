@@ -332,5 +332,25 @@ TEST(LidarSetting, ValuesNoScannerHasAreRefused) {
   EXPECT_NO_THROW(fine.apply({{"turn_rate_hz", 15.0}, {"sample_rate_hz", 8000.0}}, "cell.yaml"));
 }
 
+// A program of 10,000 moves (hours of sweeping) had eaten all memory for its log; refused by its length.
+TEST(SweepProgram, ProgramsOfHoursAreRefused) {
+  const RobotModel robot = RobotModel::load(test::repo("scenes/robots/aubo_i5.urdf"));
+  JointVector a = JointVector::Zero(), b = JointVector::Zero();
+  a[1] = 0.2;
+  b[1] = 0.25;
+  std::vector<SweepMove> moves;
+  for (int i = 0; i < 10000; ++i) moves.push_back({"m" + std::to_string(i), i % 2 ? a : b, 0.5});
+  try {
+    SweepProgram("long.yaml", a, moves, 0.2, 100.0, robot);
+    FAIL() << "taken";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("long.yaml: the sweep lasts 5000 s (10000 moves)"),
+              std::string::npos)
+        << e.what();
+  }
+  moves.resize(100);  // 50 s
+  EXPECT_NEAR(SweepProgram("short.yaml", a, moves, 0.2, 100.0, robot).duration_s(), 50.0, 1e-9);
+}
+
 }  // namespace
 }  // namespace weldtwin
