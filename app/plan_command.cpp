@@ -8,6 +8,7 @@
 #include "core/cell_spec.hpp"
 #include "core/error.hpp"
 #include "core/part_spec.hpp"
+#include "perception/mesh_io.hpp"
 #include "planning/weld_planner.hpp"
 
 namespace weldtwin {
@@ -177,6 +178,19 @@ int run_plan(const PlanCommand& cmd) {
   const RobotModel robot = RobotModel::load(cell.robot_urdf);
   const PartSpec part = PartSpec::load(cmd.part);
   const Iso3 T_base_part = read_pose(cmd.pose);
+  // A part rests on the table: a pose that puts it into the table top, or far above it, is no pose of it.
+  {
+    constexpr double kRestTolerance = 0.005;  // [m]
+    double lowest = 1e300;
+    for (const Vec3& v : load_mesh(part.mesh_path).vertices) lowest = std::min(lowest, (T_base_part * v).z());
+    const double off = lowest - cell.table.top_z_m;
+    if (std::abs(off) > kRestTolerance) {
+      char buf[200];
+      std::snprintf(buf, sizeof buf, "the pose puts the part's lowest point %.0f mm %s the table top of %s",
+                    1e3 * std::abs(off), off < 0 ? "below" : "above", cell_or_default(cmd.cell).c_str());
+      throw input_error(cmd.pose, buf);
+    }
+  }
   const PlanSetting setting;
   const WeldPlan plan = plan_welds(part, T_base_part, robot, setting);
 

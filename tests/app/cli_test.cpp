@@ -102,6 +102,12 @@ TEST(Cli, PlanRefusesBadInputAndUnreachableSeams) {
   EXPECT_NE(plan.find("unreachable"), std::string::npos);
   // The plan command checks no collisions and says so in the file (the replay in the cell checks them).
   EXPECT_NE(plan.find("\"collisions_checked\":false"), std::string::npos);
+  // A pose that puts the part 0.5 m into the table is no pose of it.
+  expect_bad_input(
+      weldtwin("plan --part " + part + " --pose " +
+               temp_file("under.json", "{\"T_base_part\": [[1,0,0,0.46],[0,1,0,0],[0,0,1,-0.5],[0,0,0,1]]}") +
+               " --out " + out),
+      "500 mm below the table top");
   // A pose that says the part was not found is not planned.
   expect_bad_input(weldtwin("plan --part " + part + " --pose " +
                             temp_file("not_found.json", "{\"found\": false, \"reason\": \"ambiguous\", " +
