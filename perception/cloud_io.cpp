@@ -194,10 +194,13 @@ std::vector<Vec3> read_pcd(const std::string& path, size_t& dropped, std::vector
     throw input_error(path, "malformed PCD header: one point's fields need more bytes than the file holds");
   // A header may claim more points than the file can hold (or a count that overflows): refuse before
   // reserving or reading anything.
-  const size_t least = format == "ascii" ? 2 : format == "binary" ? std::max<size_t>(1, L.record) : 0;
-  if ((least > 0 && points > body_bytes / least) ||
-      (format == "binary_compressed" &&
-       points > std::numeric_limits<uint32_t>::max() / std::max<size_t>(1, L.record)))
+  // At least: two bytes a value in ascii, a record in binary, a record per LZF's expansion when compressed.
+  const size_t record = std::max<size_t>(1, L.record);
+  const size_t holds = format == "ascii"               ? (body_bytes + 1) / (2 * std::max<size_t>(1, column))
+                       : format == "binary_compressed" ? max_data_bytes / record
+                                                       : body_bytes / record;
+  if (points > holds ||
+      (format == "binary_compressed" && points > std::numeric_limits<uint32_t>::max() / record))
     throw input_error(path, "truncated point cloud: the header claims " + std::to_string(points) +
                                 " points, the file holds fewer");
   const bool with_vp = viewpoints && L.has_viewpoints();

@@ -204,7 +204,7 @@ TEST(CloudIo, HeadersPromisingMoreThanTheFileHoldsAreRefusedBeforeAllocating) {
   std::memcpy(body.data(), sizes, 8);
   body += "ab";
   refused(head + "COUNT 1 1 1\nWIDTH 357913941\nHEIGHT 1\nPOINTS 357913941\nDATA binary_compressed\n" + body,
-          "compressed bytes cannot hold");
+          "the header claims 357913941 points");
   // PLY: an element without properties holds nothing whatever its count (it had been looped over 1e15 times);
   // a vertex count the file cannot hold, or a negative one, is refused at once.
   const std::string ply = (dir / "promise.ply").string();
