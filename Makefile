@@ -6,7 +6,7 @@ CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 # ccache: paths relative to the checkout, so that clones elsewhere share the cache.
 export CCACHE_BASEDIR := $(CURDIR)
 
-.PHONY: setup configure build run test bench random-bench coverage localize-survey format clean
+.PHONY: setup configure build run test bench random-bench coverage localize-survey fuzz-build fuzz format clean
 
 setup:
 	@bash scripts/setup
@@ -55,6 +55,28 @@ localize-survey: build
 	  --layouts 200 --jobs 2 --impostor-layouts 40 --csv $(OUT)/localize_survey.csv \
 	  scenes/cells/default.yaml scenes/cells/round_on_plate.yaml scenes/cells/tube_tee.yaml \
 	  scenes/cells/offset_tube_on_plate.yaml scenes/cells/rect_tee_flat.yaml scenes/cells/paper_tee.yaml
+
+# libFuzzer harnesses of the readers (clang, with AddressSanitizer and UndefinedBehaviorSanitizer): cloud (PCD,
+# PLY), mesh (STL, PLY, OBJ), part spec (YAML), ScanLog. `make fuzz` runs each for FUZZ_SECONDS from seeds made
+# by fuzz/make_seeds.py (and the corpus kept in $(BUILD)-fuzz/corpus); a finding stops it with the input saved.
+FUZZ_SECONDS ?= 600
+FUZZ_HARNESSES ?= cloud mesh part_spec scan_log
+fuzz-build: setup
+	@cmake -S fuzz -B $(BUILD)-fuzz -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
+	  -DCMAKE_CXX_COMPILER_LAUNCHER=ccache >/dev/null
+	@cmake --build $(BUILD)-fuzz -j$(JOBS)
+
+fuzz: fuzz-build
+	@python3 fuzz/make_seeds.py $(BUILD)-fuzz/seeds
+	@for h in $(FUZZ_HARNESSES); do \
+	  mkdir -p $(BUILD)-fuzz/corpus/$$h $(BUILD)-fuzz/findings; \
+	  echo "fuzz: $$h for $(FUZZ_SECONDS) s"; \
+	  $(BUILD)-fuzz/fuzz_$$h -max_total_time=$(FUZZ_SECONDS) -rss_limit_mb=2048 -max_len=65536 -timeout=10 \
+	    -artifact_prefix=$(BUILD)-fuzz/findings/$$h- -print_final_stats=1 \
+	    $(BUILD)-fuzz/corpus/$$h $(BUILD)-fuzz/seeds/$$h 2>$(BUILD)-fuzz/$$h.log || \
+	    { tail -30 $(BUILD)-fuzz/$$h.log; exit 1; }; \
+	  grep -E "stat::number_of_executed_units|Done" $(BUILD)-fuzz/$$h.log | tr '\n' ' '; echo; \
+	done
 
 format:
 	@git ls-files '*.cpp' '*.hpp' | xargs clang-format -i

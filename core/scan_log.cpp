@@ -99,9 +99,16 @@ ScanLog ScanLog::read(const std::string& path) {
     log.lidar_frame = h.at("lidar_frame").get<std::string>();
     log.lidar_model = h.value("lidar_model", "");
     log.joint_names = h.at("joint_names").get<std::vector<std::string>>();
-    nt = h.at("num_turns").get<size_t>();
-    ns = h.at("num_samples").get<size_t>();
-    nj = h.at("num_joint_states").get<size_t>();
+    // Counts must be whole numbers as JSON has them: a float (8.6e20) would not convert to size_t.
+    auto count = [&](const char* key) {
+      const auto& v = h.at(key);
+      if (!v.is_number_unsigned() && !(v.is_number_integer() && v.get<long long>() >= 0))
+        throw input_error(path, std::string("scan log header: '") + key + "' must be a whole number");
+      return v.get<size_t>();
+    };
+    nt = count("num_turns");
+    ns = count("num_samples");
+    nj = count("num_joint_states");
     if (h.value("byte_order", "little") != "little")
       throw input_error(path, "only little-endian logs are supported");
   } catch (const nlohmann::json::exception& e) {

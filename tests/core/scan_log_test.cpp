@@ -67,6 +67,28 @@ TEST(ScanLog, MalformedFilesAreInputErrors) {
   EXPECT_THROW(ScanLog::read(temp("wt_missing.scanlog")), InputError);
 }
 
+// A count written as a float (8.6e20, as the fuzzer wrote it) had been converted to size_t: undefined behaviour.
+TEST(ScanLog, CountsMustBeWholeNumbers) {
+  const std::string path = temp("wt_float.scanlog");
+  random_log(4).write(path);
+  std::ifstream in(path, std::ios::binary);
+  std::string magic, header;
+  std::getline(in, magic);
+  std::getline(in, header);
+  const std::string body((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (const nlohmann::json& bad : {nlohmann::json(8.6e20), nlohmann::json(-3), nlohmann::json("4")}) {
+    nlohmann::json h = nlohmann::json::parse(header);
+    h["num_samples"] = bad;
+    std::ofstream(path, std::ios::binary) << magic << "\n" << h.dump() << "\n" << body;
+    try {
+      ScanLog::read(path);
+      ADD_FAILURE() << bad.dump() << " was read";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("'num_samples' must be a whole number"), std::string::npos) << e.what();
+    }
+  }
+}
+
 // A count that wraps the size check (num_turns + 2^60: times 16 bytes, the same sum modulo 2^64) had passed
 // it and then asked for 2^60 turns (an internal error); now refused as the header promising too much.
 TEST(ScanLog, CountsThatWrapTheSizeCheckAreRefused) {
