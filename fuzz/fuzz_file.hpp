@@ -17,7 +17,8 @@ namespace weldtwin::fuzz {
 
 inline std::string scratch(const std::string& name) {
   static const std::filesystem::path dir = [] {
-    std::filesystem::path d = std::filesystem::exists("/dev/shm") ? "/dev/shm" : std::filesystem::temp_directory_path();
+    std::filesystem::path d =
+        std::filesystem::exists("/dev/shm") ? "/dev/shm" : std::filesystem::temp_directory_path();
     d /= "weldtwin_fuzz_" + std::to_string(getpid());
     std::filesystem::create_directories(d);
     return d;
@@ -27,8 +28,8 @@ inline std::string scratch(const std::string& name) {
 
 inline std::string write(const std::string& name, const uint8_t* data, size_t size) {
   const std::string path = scratch(name);
-  std::ofstream(path, std::ios::binary | std::ios::trunc).write(reinterpret_cast<const char*>(data),
-                                                                 static_cast<std::streamsize>(size));
+  std::ofstream(path, std::ios::binary | std::ios::trunc)
+      .write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
   return path;
 }
 
