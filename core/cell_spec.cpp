@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "core/error.hpp"
+#include "core/files.hpp"
 #include "core/yaml_util.hpp"
 
 namespace weldtwin {
@@ -10,7 +11,7 @@ namespace {
 
 std::string existing(const std::string& file, const YAML::Node& root, const std::string& key) {
   const std::string path = yaml::resolve(file, yaml::text(root, key, file));
-  if (!std::filesystem::is_regular_file(path))
+  if (!is_file(path))
     throw input_error(file, "field '" + key + "': file '" + path + "' does not exist");
   return path;
 }

@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "core/error.hpp"
+#include "core/files.hpp"
 #include "core/yaml_util.hpp"
 
 namespace weldtwin {
@@ -134,7 +135,7 @@ PartSpec PartSpec::parse(const std::string& yaml_path) {
   part.source = yaml_path;
   part.name = yaml::text(root, "name", yaml_path);
   part.mesh_path = yaml::resolve(yaml_path, yaml::text(root, "model", yaml_path));
-  if (!std::filesystem::is_regular_file(part.mesh_path))
+  if (!is_file(part.mesh_path))
     throw input_error(yaml_path, "mesh '" + part.mesh_path + "' does not exist");
   part.height_m = yaml::length(root, "height", yaml_path);
 

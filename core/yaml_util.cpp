@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "core/error.hpp"
+#include "core/files.hpp"
 
 namespace weldtwin::yaml {
 namespace {
@@ -23,7 +24,7 @@ double as_number(const YAML::Node& v, const std::string& key, const std::string&
 }  // namespace
 
 YAML::Node load_file(const std::string& path) {
-  if (!std::filesystem::is_regular_file(path)) throw input_error(path, "no such file");
+  if (!is_file(path)) throw input_error(path, "no such file");
   YAML::Node root;
   try {
     root = YAML::LoadFile(path);

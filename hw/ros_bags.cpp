@@ -15,6 +15,7 @@
 #include <map>
 
 #include "core/error.hpp"
+#include "core/files.hpp"
 
 namespace weldtwin {
 namespace {
@@ -398,7 +399,7 @@ void check_ros1_records(const std::string& path) {
 }  // namespace
 
 ScanLog read_ros1_bag(const std::string& path, const RobotModel& robot, const BagTopics& topics) {
-  if (!std::filesystem::exists(path)) throw input_error(path, "no such file");
+  if (!path_exists(path)) throw input_error(path, "no such file");
   check_ros1_records(path);
   std::vector<ScanMsg> scans;
   std::vector<JointMsg> joints;
@@ -473,7 +474,7 @@ void write_ros1_bag(const std::string& path, const ScanLog& log, double epoch_s)
 }
 
 ScanLog read_ros2_bag(const std::string& path, const RobotModel& robot, const BagTopics& topics) {
-  if (!std::filesystem::exists(path)) throw input_error(path, "no such file or directory");
+  if (!path_exists(path)) throw input_error(path, "no such file or directory");
   const std::string file = find_db3(path);
   Db db;
   if (sqlite3_open_v2(file.c_str(), &db.db, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK)

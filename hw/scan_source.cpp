@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "core/error.hpp"
+#include "core/files.hpp"
 #include "hw/robot_driver.hpp"
 #include "hw/ros_bags.hpp"
 #include "hw/rplidar.hpp"
@@ -151,7 +152,7 @@ std::unique_ptr<ScanSource> make_scan_source(const std::string& spec, const Robo
   if (spec.rfind("log:", 0) == 0) {
     const std::string path = spec.substr(4);
     if (path.empty()) throw InputError("--source log:FILE needs a file");
-    if (!std::filesystem::exists(path)) throw input_error(path, "no such file or directory");
+    if (!path_exists(path)) throw input_error(path, "no such file or directory");
     return std::make_unique<LogSource>(path, robot);
   }
   if (spec.rfind("lidar:", 0) == 0) {

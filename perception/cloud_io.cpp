@@ -19,6 +19,7 @@
 #include <stdexcept>
 
 #include "core/error.hpp"
+#include "core/files.hpp"
 
 namespace weldtwin {
 namespace {
@@ -27,7 +28,7 @@ namespace {
 constexpr size_t kLzfMaxRatio = 90;
 
 std::string read_file(const std::string& path) {
-  if (!std::filesystem::is_regular_file(path)) throw input_error(path, "no such file");
+  if (!is_file(path)) throw input_error(path, "no such file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw input_error(path, "cannot open the file");
   std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -505,7 +506,7 @@ std::vector<Vec3> read_cloud(const std::string& path, size_t* dropped_non_finite
   } else if (ext == ".ply" || ext == ".PLY") {
     out = read_ply(path, dropped, viewpoints);
   } else {
-    if (!std::filesystem::is_regular_file(path)) throw input_error(path, "no such file");
+    if (!is_file(path)) throw input_error(path, "no such file");
     throw input_error(path, "unknown cloud format '" + ext + "' (expected .pcd or .ply)");
   }
   if (dropped_non_finite) *dropped_non_finite = dropped;

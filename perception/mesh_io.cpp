@@ -4,12 +4,16 @@
 #include <assimp/scene.h>
 #include <assimp/Importer.hpp>
 #include <cctype>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <random>
+#include <sstream>
 
 #include "core/error.hpp"
+#include "core/files.hpp"
 #include "perception/cloud_io.hpp"
 #include "perception/mesh_rays.hpp"
 
@@ -49,18 +53,62 @@ void check_mesh(const std::string& path, Mesh& mesh, double scale) {
   }
 }
 
+// Wavefront OBJ: `v x y z` vertices and `f a b c ...` faces (indices from 1, negative from the end, each
+// maybe `a/t/n`), polygons as fans; everything else ignored. Ours rather than Assimp's, which leaked on
+// malformed files the fuzzer wrote.
+Mesh read_obj(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw input_error(path, "cannot open the mesh");
+  Mesh mesh;
+  std::string line;
+  size_t number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    std::istringstream words(line);
+    std::string key;
+    words >> key;
+    if (key == "v") {
+      Vec3 v;
+      if (!(words >> v.x() >> v.y() >> v.z()))
+        throw input_error(path, "line " + std::to_string(number) + ": a vertex needs x y z");
+      mesh.vertices.push_back(v);
+    } else if (key == "f") {
+      std::vector<int> ids;
+      for (std::string w; words >> w;) {
+        long long i = 0;
+        const auto r = std::from_chars(w.data(), w.data() + w.size(), i);
+        const long long n = static_cast<long long>(mesh.vertices.size());
+        if (r.ec != std::errc() || (r.ptr != w.data() + w.size() && *r.ptr != '/') || i == 0 || i > n ||
+            i < -n)
+          throw input_error(path, "line " + std::to_string(number) + ": face names vertex '" + w + "' of " +
+                                      std::to_string(n));
+        ids.push_back(static_cast<int>(i > 0 ? i - 1 : n + i));
+      }
+      if (ids.size() < 3)
+        throw input_error(path, "line " + std::to_string(number) + ": a face needs 3 vertices");
+      for (size_t k = 2; k < ids.size(); ++k) mesh.faces.emplace_back(ids[0], ids[k - 1], ids[k]);
+    }
+  }
+  return mesh;
+}
+
 }  // namespace
 
 Mesh load_mesh(const std::string& path, double scale) {
-  if (!std::filesystem::is_regular_file(path)) throw input_error(path, "no such mesh file");
-  if (std::filesystem::file_size(path) == 0) throw input_error(path, "empty mesh file");
+  if (!is_file(path)) throw input_error(path, "no such mesh file");
+  std::error_code size_error;
+  if (std::filesystem::file_size(path, size_error) == 0 || size_error)
+    throw input_error(path, "empty mesh file");
   std::string ext = std::filesystem::path(path).extension().string();
   for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
   if (ext != ".stl" && ext != ".ply" && ext != ".obj")
     throw input_error(path, "unknown mesh format '" + ext + "' (STL, PLY or OBJ)");
-  if (ext == ".ply") {  // our reader: Assimp's asserts on some valid binary PLYs and trusts face indices
+  if (ext == ".ply" || ext == ".obj") {  // ours: Assimp asserted on a valid binary PLY, leaked on OBJs
     Mesh mesh;
-    mesh.vertices = read_ply_mesh(path, mesh.faces);
+    if (ext == ".ply")
+      mesh.vertices = read_ply_mesh(path, mesh.faces);
+    else
+      mesh = read_obj(path);
     for (Vec3& v : mesh.vertices) v *= scale;
     check_mesh(path, mesh, scale);
     return mesh;

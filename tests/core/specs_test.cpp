@@ -77,6 +77,10 @@ TEST(PartSpec, BadSpecsAreRejected) {
   const std::string missing_mesh = "name: p\nmodel: nowhere.stl\nheight_m: 0.1\n";
   EXPECT_NE(error_of([&] { PartSpec::load(write_temp("nomesh.yaml", missing_mesh)); }).find("nowhere.stl"),
             std::string::npos);
+  // A model path too long for the file system (the fuzzer's): "does not exist", not a filesystem_error.
+  const std::string long_path = "name: p\nmodel: " + std::string(5000, 'a') + ".stl\nheight_m: 0.1\n";
+  EXPECT_NE(error_of([&] { PartSpec::load(write_temp("longpath.yaml", long_path)); }).find("does not exist"),
+            std::string::npos);
   const std::string letters = head + seam + "    end: [0, x, 0]\n" + tail;
   EXPECT_NE(error_of([&] { PartSpec::load(write_temp("letters.yaml", letters)); }).find("letters.yaml"),
             std::string::npos);

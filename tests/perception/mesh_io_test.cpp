@@ -112,6 +112,29 @@ TEST(MeshIo, PlyReadsAsItsStl) {
   EXPECT_EQ(poly.faces[4], Eigen::Vector3i(0, 4, 3));
 }
 
+TEST(MeshIo, ObjReadsAsItsStl) {
+  const Mesh stl = load_mesh(test::repo("scenes/parts/tube_on_plate.stl"));
+  std::string obj = "# written by mesh_io_test\no part\n";
+  for (const Vec3& v : stl.vertices)
+    obj += "v " + std::to_string(v.x()) + " " + std::to_string(v.y()) + " " + std::to_string(v.z()) + "\n";
+  for (size_t i = 0; i < stl.faces.size(); ++i) {
+    const Eigen::Vector3i& f = stl.faces[i];
+    // Every other face as vertex/texture/normal triples, one with indices counted from the end.
+    if (i % 2)
+      obj += "f " + std::to_string(f[0] + 1) + "/1/1 " + std::to_string(f[1] + 1) + "//2 " +
+             std::to_string(f[2] + 1) + "/3\n";
+    else
+      obj += "f " + std::to_string(f[0] - static_cast<int>(stl.vertices.size())) + " " +
+             std::to_string(f[1] + 1) + " " + std::to_string(f[2] + 1) + "\n";
+  }
+  const Mesh read = load_mesh(write("part.obj", obj));
+  ASSERT_EQ(read.faces.size(), stl.faces.size());
+  for (size_t i = 0; i < stl.faces.size(); ++i) ASSERT_EQ(read.faces[i], stl.faces[i]) << i;
+  EXPECT_LT((read.vertices[7] - stl.vertices[7]).norm(), 1e-6);
+  expect_refused(write("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"), "face names vertex '9' of 3");
+  expect_refused(write("short.obj", "v 0 0 0\nv 1 0\n"), "a vertex needs x y z");
+}
+
 TEST(MeshIo, MeshesNoPartCanBeAreRefusedNamingTheFile) {
   const Mesh stl = load_mesh(test::repo("scenes/parts/tube_on_plate.stl"));
   const std::string head =
