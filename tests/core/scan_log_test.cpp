@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <random>
 
 #include "core/error.hpp"
@@ -67,24 +68,30 @@ TEST(ScanLog, MalformedFilesAreInputErrors) {
   EXPECT_THROW(ScanLog::read(temp("wt_missing.scanlog")), InputError);
 }
 
-// A count written as a float (8.6e20, as the fuzzer wrote it) had been converted to size_t: undefined behaviour.
-TEST(ScanLog, CountsMustBeWholeNumbers) {
-  const std::string path = temp("wt_float.scanlog");
+// A count written as a float (8.6e20, as the fuzzer wrote it) had been converted to size_t: undefined
+// behaviour. A valid log written to `path` with one header field changed.
+void write_with_header(const std::string& path, const std::function<void(nlohmann::json&)>& change) {
   random_log(4).write(path);
   std::ifstream in(path, std::ios::binary);
   std::string magic, header;
   std::getline(in, magic);
   std::getline(in, header);
   const std::string body((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  nlohmann::json h = nlohmann::json::parse(header);
+  change(h);
+  std::ofstream(path, std::ios::binary) << magic << "\n" << h.dump() << "\n" << body;
+}
+
+TEST(ScanLog, CountsMustBeWholeNumbers) {
+  const std::string path = temp("wt_float.scanlog");
   for (const nlohmann::json& bad : {nlohmann::json(8.6e20), nlohmann::json(-3), nlohmann::json("4")}) {
-    nlohmann::json h = nlohmann::json::parse(header);
-    h["num_samples"] = bad;
-    std::ofstream(path, std::ios::binary) << magic << "\n" << h.dump() << "\n" << body;
+    write_with_header(path, [&](nlohmann::json& h) { h["num_samples"] = bad; });
     try {
       ScanLog::read(path);
       ADD_FAILURE() << bad.dump() << " was read";
     } catch (const InputError& e) {
-      EXPECT_NE(std::string(e.what()).find("'num_samples' must be a whole number"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("'num_samples' must be a whole number"), std::string::npos)
+          << e.what();
     }
   }
 }
@@ -93,15 +100,8 @@ TEST(ScanLog, CountsMustBeWholeNumbers) {
 // it and then asked for 2^60 turns (an internal error); now refused as the header promising too much.
 TEST(ScanLog, CountsThatWrapTheSizeCheckAreRefused) {
   const std::string path = temp("wt_wrap.scanlog");
-  random_log(4).write(path);
-  std::ifstream in(path, std::ios::binary);
-  std::string magic, header;
-  std::getline(in, magic);
-  std::getline(in, header);
-  const std::string body((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  nlohmann::json h = nlohmann::json::parse(header);
-  h["num_turns"] = h["num_turns"].get<uint64_t>() + (uint64_t{1} << 60);
-  std::ofstream(path, std::ios::binary) << magic << "\n" << h.dump() << "\n" << body;
+  write_with_header(
+      path, [](nlohmann::json& h) { h["num_turns"] = h["num_turns"].get<uint64_t>() + (uint64_t{1} << 60); });
   try {
     ScanLog::read(path);
     FAIL() << "read";
