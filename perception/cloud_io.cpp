@@ -11,6 +11,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -427,10 +428,12 @@ std::vector<Vec3> read_ply(const std::string& path, size_t& dropped, std::vector
         for (size_t k = 2; k < polygon.size(); ++k) {
           const double ids[3] = {polygon[0], polygon[k - 1], polygon[k]};
           for (double id : ids)
-            if (!(id >= 0 && id < static_cast<double>(out.size())))
+            if (!(id >= 0 && id < static_cast<double>(out.size()))) {
+              char named[32];  // the index as the file has it (it may not fit an integer)
+              std::snprintf(named, sizeof named, "%.15g", id);
               throw input_error(path, "malformed PLY mesh: face " + std::to_string(n) + " names vertex " +
-                                          std::to_string(static_cast<long long>(id)) + " of " +
-                                          std::to_string(out.size()));
+                                          named + " of " + std::to_string(out.size()));
+            }
           mesh->emplace_back(static_cast<int>(ids[0]), static_cast<int>(ids[1]), static_cast<int>(ids[2]));
         }
       }

@@ -142,6 +142,7 @@ TEST(MeshIo, MeshesNoPartCanBeAreRefusedNamingTheFile) {
       "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n0.1 0 0\n0 0.1 0\n";
   expect_refused(write("oob.ply", head + "3 0 1 999999\n"), "names vertex 999999");
   expect_refused(write("negative.ply", head + "3 0 -1 2\n"), "names vertex -1");
+  expect_refused(write("huge_index.ply", head + "3 0 1 2.2e51\n"), "names vertex 2.2e+51");  // fuzzer's
   // The part in millimetres read as metres: 160 m across. With --units mm it loads.
   const std::string mm = write("in_mm.stl", binary_stl(stl, 1000.0));
   expect_refused(mm, "millimetres? use --units mm");
