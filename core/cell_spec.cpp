@@ -11,8 +11,7 @@ namespace {
 
 std::string existing(const std::string& file, const YAML::Node& root, const std::string& key) {
   const std::string path = yaml::resolve(file, yaml::text(root, key, file));
-  if (!is_file(path))
-    throw input_error(file, "field '" + key + "': file '" + path + "' does not exist");
+  if (!is_file(path)) throw input_error(file, "field '" + key + "': file '" + path + "' does not exist");
   return path;
 }
 

@@ -135,8 +135,7 @@ PartSpec PartSpec::parse(const std::string& yaml_path) {
   part.source = yaml_path;
   part.name = yaml::text(root, "name", yaml_path);
   part.mesh_path = yaml::resolve(yaml_path, yaml::text(root, "model", yaml_path));
-  if (!is_file(part.mesh_path))
-    throw input_error(yaml_path, "mesh '" + part.mesh_path + "' does not exist");
+  if (!is_file(part.mesh_path)) throw input_error(yaml_path, "mesh '" + part.mesh_path + "' does not exist");
   part.height_m = yaml::length(root, "height", yaml_path);
 
   const YAML::Node fp = root["footprint_m"];

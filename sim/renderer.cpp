@@ -70,7 +70,8 @@ const OsMesa& osmesa() {
     return a;
   }();
   if (!api.create)
-    throw std::runtime_error("offscreen pictures need OSMesa (libOSMesa.so.8, Debian's libosmesa6): not found");
+    throw std::runtime_error(
+        "offscreen pictures need OSMesa (libOSMesa.so.8, Debian's libosmesa6): not found");
   return api;
 }
 
@@ -119,7 +120,7 @@ OffscreenRenderer::~OffscreenRenderer() {
 Image OffscreenRenderer::render(mjData* data, const View& view, const Overlay& overlay) {
   Impl& r = *impl_;
   osmesa().make_current(r.context, r.buffer.data(), GL_UNSIGNED_BYTE, r.model->vis.global.offwidth,
-                    r.model->vis.global.offheight);
+                        r.model->vis.global.offheight);
   mjvCamera cam;
   mjv_defaultCamera(&cam);
   if (!view.camera.empty()) {

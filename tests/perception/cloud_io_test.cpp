@@ -210,13 +210,13 @@ TEST(CloudIo, HeadersPromisingMoreThanTheFileHoldsAreRefusedBeforeAllocating) {
   const std::string ply = (dir / "promise.ply").string();
   const std::string props = "property float x\nproperty float y\nproperty float z\nend_header\n";
   for (const char* junk : {"1000000000000000", "18446744073709551615"}) {
-    std::ofstream(ply) << "ply\nformat ascii 1.0\nelement junk " << junk << "\nelement vertex 1\n" << props
-                       << "0 0 0";
+    std::ofstream(ply) << "ply\nformat ascii 1.0\nelement junk " << junk << "\nelement vertex 1\n"
+                       << props << "0 0 0";
     EXPECT_EQ(read_cloud(ply).size(), 1u) << junk;
   }
   for (const char* count : {"1000000000000000", "-1", "12abc"}) {
-    std::ofstream(ply) << "ply\nformat binary_little_endian 1.0\nelement vertex " << count << "\n" << props
-                       << std::string(24, '\0');
+    std::ofstream(ply) << "ply\nformat binary_little_endian 1.0\nelement vertex " << count << "\n"
+                       << props << std::string(24, '\0');
     EXPECT_THROW(read_cloud(ply), InputError) << count;
   }
   // The same header with an honest count reads.
