@@ -6,7 +6,7 @@ CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 # ccache: paths relative to the checkout, so that clones elsewhere share the cache.
 export CCACHE_BASEDIR := $(CURDIR)
 
-.PHONY: setup configure build run test bench random-bench coverage localize-survey fuzz-build fuzz format clean
+.PHONY: setup configure build run test test-sanitize bench random-bench coverage localize-survey fuzz-build fuzz format clean
 
 setup:
 	@bash scripts/setup
@@ -25,6 +25,20 @@ run: build
 
 test: build
 	@cd $(BUILD) && ctest --output-on-failure -j$(JOBS)
+
+# The test suite built with AddressSanitizer and UndefinedBehaviorSanitizer (gcc, -O1) and run with every report
+# fatal. Trimmed of what only repeats the end-to-end runs at ten times the cost (run_<cell>: ten weldtwin runs
+# each; the browser test; the cluster tests); every reader's test runs.
+SANITIZE := -fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer
+SANITIZE_SKIP ?= ^(run_|report_browser_test|cluster_bench_)
+test-sanitize: setup
+	@cmake -S . -B $(BUILD)-sanitize -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" \
+	  -DCMAKE_CXX_FLAGS="$(SANITIZE)" -DCMAKE_C_FLAGS="$(SANITIZE)" -DCMAKE_EXE_LINKER_FLAGS="$(SANITIZE)" \
+	  -DCMAKE_SHARED_LINKER_FLAGS="$(SANITIZE)" -DWELDTWIN_BUILD_BENCHMARKS=OFF >/dev/null
+	@cmake --build $(BUILD)-sanitize -j$(JOBS)
+	@cd $(BUILD)-sanitize && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:detect_stack_use_after_return=0 \
+	  LSAN_OPTIONS=suppressions=$(CURDIR)/tests/sanitize/lsan.supp:print_suppressions=0 \
+	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 ctest --output-on-failure -j$(JOBS) -E '$(SANITIZE_SKIP)'
 
 bench: build
 	$(BUILD)/benchmarks/weldtwin_bench --benchmark_min_time=0.5
@@ -57,21 +71,25 @@ localize-survey: build
 	  scenes/cells/offset_tube_on_plate.yaml scenes/cells/rect_tee_flat.yaml scenes/cells/paper_tee.yaml
 
 # libFuzzer harnesses of the readers (clang, with AddressSanitizer and UndefinedBehaviorSanitizer): cloud (PCD,
-# PLY), mesh (STL, PLY, OBJ), part spec (YAML), ScanLog. `make fuzz` runs each for FUZZ_SECONDS from seeds made
-# by fuzz/make_seeds.py (and the corpus kept in $(BUILD)-fuzz/corpus); a finding stops it with the input saved.
+# PLY), mesh (STL, PLY, OBJ), part and cell specs (YAML), ScanLog, pose and plan JSON, ROS 1 and ROS 2 bags, the
+# RPLIDAR byte streams, the robot controller's messages. `make fuzz` runs each for FUZZ_SECONDS from seeds made by
+# fuzz/make_seeds.py (and the corpus kept in $(BUILD)-fuzz/corpus); a finding stops it with the input saved.
+# FUZZ_REAL=DIR adds real files (bags, RPLIDAR captures, controller messages) from DIR to the seeds.
 FUZZ_SECONDS ?= 600
-FUZZ_HARNESSES ?= cloud mesh part_spec scan_log
+FUZZ_HARNESSES ?= cloud mesh part_spec cell_spec scan_log pose_plan ros_bag rplidar aubo_messages
+FUZZ_REAL ?=
 fuzz-build: setup
 	@cmake -S fuzz -B $(BUILD)-fuzz -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
 	  -DCMAKE_CXX_COMPILER_LAUNCHER=ccache >/dev/null
 	@cmake --build $(BUILD)-fuzz -j$(JOBS)
 
 fuzz: fuzz-build
-	@python3 fuzz/make_seeds.py $(BUILD)-fuzz/seeds
+	@python3 fuzz/make_seeds.py $(BUILD)-fuzz/seeds --seed-bags $(BUILD)-fuzz/seed_bags $(if $(FUZZ_REAL),--real $(FUZZ_REAL))
 	@for h in $(FUZZ_HARNESSES); do \
 	  mkdir -p $(BUILD)-fuzz/corpus/$$h $(BUILD)-fuzz/findings; \
 	  echo "fuzz: $$h for $(FUZZ_SECONDS) s"; \
-	  $(BUILD)-fuzz/fuzz_$$h -max_total_time=$(FUZZ_SECONDS) -rss_limit_mb=2048 -max_len=65536 -timeout=10 \
+	  len=65536; [ $$h = ros_bag ] && len=262144; \
+	  $(BUILD)-fuzz/fuzz_$$h -max_total_time=$(FUZZ_SECONDS) -rss_limit_mb=2048 -max_len=$$len -timeout=10 \
 	    -artifact_prefix=$(BUILD)-fuzz/findings/$$h- -print_final_stats=1 \
 	    $(BUILD)-fuzz/corpus/$$h $(BUILD)-fuzz/seeds/$$h 2>$(BUILD)-fuzz/$$h.log || \
 	    { tail -30 $(BUILD)-fuzz/$$h.log; exit 1; }; \

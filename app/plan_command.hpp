@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "app/plan_files.hpp"
 #include "core/geometry.hpp"
 #include "core/part_spec.hpp"
 #include "core/robot_model.hpp"
@@ -25,19 +26,9 @@ inline std::string cell_or_default(const std::string& cell) {
   return cell.empty() ? std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml" : cell;
 }
 
-/// T_base_part from a pose JSON; throws InputError naming the file.
-Iso3 read_pose(const std::string& path);
-
 /// The plan JSON of DESIGN.md.
 nlohmann::json plan_to_json(const WeldPlan& plan, const PartSpec& part, const RobotModel& robot,
                             const PlanSetting& setting);
-
-/// The samples of a plan JSON (t, q, tcp, seam, arc); throws InputError naming the file.
-WeldPlan read_plan(const std::string& path);
-
-/// Whether the plan read from `path` welds `part`: every sample's seam is one of the part's, and every seam
-/// of the part has arc-on samples. Throws InputError naming the file and the seam.
-void check_plan_for_part(const WeldPlan& plan, const PartSpec& part, const std::string& path);
 
 /// Returns the exit code: 0 planned, 3 a seam cannot be welded (the plan file says why). Throws InputError.
 int run_plan(const PlanCommand& cmd);

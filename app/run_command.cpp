@@ -14,6 +14,7 @@
 #include "app/robot_gate.hpp"
 #include "core/cell_spec.hpp"
 #include "core/error.hpp"
+#include "hw/execution_record.hpp"
 #include "hw/robot_driver.hpp"
 #include "hw/scan_source.hpp"
 #include "perception/cloud_io.hpp"
@@ -42,26 +43,6 @@ struct StopOnSigint {
   ~StopOnSigint() { std::signal(SIGINT, previous); }
   void (*previous)(int) = SIG_DFL;
 };
-
-/// DIR/execution.json: what the robot was sent and what it reported.
-void write_execution(const std::string& path, const std::string& robot, const std::string& sha256,
-                     double speed, const ExecutionLog& log, const std::string& outcome) {
-  nlohmann::json j;
-  j["robot"] = robot;
-  j["plan_sha256"] = sha256;
-  j["speed_fraction"] = speed;
-  j["samples_sent"] = log.samples_sent;
-  j["wall_s"] = log.wall_s;
-  j["outcome"] = outcome;
-  j["exchanges"] = log.exchanges;
-  nlohmann::json t = nlohmann::json::array(), q = nlohmann::json::array();
-  for (const JointState& s : log.joints) {
-    t.push_back(s.t_s);
-    q.push_back(std::vector<double>(s.q.data(), s.q.data() + s.q.size()));
-  }
-  j["joints"] = {{"t_s", t}, {"q_rad", q}};
-  std::ofstream(path) << j.dump() << '\n';
-}
 
 }  // namespace
 
@@ -307,13 +288,13 @@ int run_job(const RunCommand& cmd) {
           say(stage, line);
         });
       } catch (const RobotError& e) {
-        write_execution(cmd.out + "/execution.json", driver->describe(), gated.sha256, cmd.speed_fraction,
-                        exec, e.what());
+        write_execution_record(cmd.out + "/execution.json",
+                               {driver->describe(), gated.sha256, cmd.speed_fraction, e.log(), e.what()});
         std::printf("FAIL: robot: %s; record %s/execution.json\n", e.what(), cmd.out.c_str());
         return g_stop_requested ? 130 : 3;
       }
-      write_execution(cmd.out + "/execution.json", driver->describe(), gated.sha256, cmd.speed_fraction, exec,
-                      "completed");
+      write_execution_record(cmd.out + "/execution.json",
+                             {driver->describe(), gated.sha256, cmd.speed_fraction, exec, "completed"});
       std::snprintf(buf, sizeof buf, "executed %zu samples in %.1f s; record %s/execution.json",
                     exec.samples_sent, exec.wall_s, cmd.out.c_str());
       say(stage, buf);

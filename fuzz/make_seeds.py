@@ -1,17 +1,26 @@
 #!/usr/bin/env python3
 """Seed corpora for the fuzz harnesses, small valid files of each kind (libFuzzer mutates from them):
-    fuzz/make_seeds.py OUT_DIR
-The cloud and mesh harnesses read their first byte as the format (cloud: even PCD, odd PLY; mesh: 0 STL, 1 PLY,
-2 OBJ), so each seed starts with it. The shipped part meshes and specs are added as they are."""
+    fuzz/make_seeds.py OUT_DIR [--seed-bags BIN] [--real DIR]
+Harnesses that read their first byte as a format or a chunk size get it prefixed (cloud: even PCD, odd PLY;
+mesh: 0 STL, 1 PLY, 2 OBJ; pose_plan: even pose, odd plan; ros_bag: even ROS 1, odd ROS 2; rplidar: even
+SCAN, odd EXPRESS, and the chunk size; aubo_messages: the chunk size). The shipped part meshes, part and cell
+specs are added as they are; --seed-bags runs fuzz/seed_bags (bags from weldtwin's own writers); --real adds
+files made outside the project from DIR (its bags/ and rplidar/, as the real-data README lays them out)."""
+import argparse
+import glob
 import json
 import os
-import shutil
 import struct
-import sys
+import subprocess
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-out = sys.argv[1]
-for d in ("cloud", "mesh", "part_spec", "scan_log"):
+ap = argparse.ArgumentParser()
+ap.add_argument("out")
+ap.add_argument("--seed-bags")
+ap.add_argument("--real")
+args = ap.parse_args()
+out = args.out
+for d in ("cloud", "mesh", "part_spec", "cell_spec", "scan_log", "pose_plan", "ros_bag", "rplidar", "aubo_messages"):
     os.makedirs(os.path.join(out, d), exist_ok=True)
 
 
@@ -52,3 +61,73 @@ body = struct.pack("<dII", 0.0, 0, 4) + struct.pack("<dII", 0.1, 4, 4)
 body += b"".join(struct.pack("<dffB", 0.025 * i, 0.5 * i, 1.0 + 0.1 * i, 40) for i in range(8))
 body += b"".join(struct.pack("<7d", 0.1 * i, *[0.01 * i] * 6) for i in range(3))
 put("scan_log", "small.scanlog", b"WELDTWIN-SCANLOG 1\n" + json.dumps(header).encode() + b"\n" + body)
+
+cells = os.path.join(ROOT, "scenes", "cells")
+for name in sorted(os.listdir(cells)):
+    if name.endswith(".yaml"):
+        put("cell_spec", name, open(os.path.join(cells, name), "rb").read())
+
+pose = {"found": True, "T_base_part": [[0, -1, 0, 0.48], [1, 0, 0, 0.06], [0, 0, 1, 0.0], [0, 0, 0, 1]],
+        "seam_error_bound_mm": 0.4}
+put("pose_plan", "pose.json", b"\0" + json.dumps(pose).encode())
+samples = []
+for k in range(40):
+    seam = 0 if 5 <= k < 20 else (1 if 22 <= k < 38 else -1)
+    samples.append({"t": 0.005 * k, "q": [0.01 * k, 0, 1.57, 0, 1.57, 0], "tcp": [0.4, 0.05, 0.03, 1, 0, 0, 0],
+                    "seam": seam, "arc": seam >= 0, "phase": "weld" if seam >= 0 else "approach"})
+put("pose_plan", "plan.json", b"\1" + json.dumps({"part": "tube_on_plate", "ok": True, "samples": samples}).encode())
+
+if args.seed_bags:
+    subprocess.run([args.seed_bags, os.path.join(out, "ros_bag")], check=True)
+
+
+def node(angle_deg, dist_mm, quality, start):
+    a = int(angle_deg * 64) << 1 | 1
+    return bytes([(quality << 2) | (2 if not start else 1), a & 0xFF, a >> 8]) + struct.pack("<H", int(dist_mm * 4))
+
+
+descriptor_scan = bytes([0xA5, 0x5A, 5, 0, 0, 0x40, 0x81])
+nodes = b"".join(node(i * 2.0, 400 + i, 40, i == 0) for i in range(180))
+put("rplidar", "scan.bin", bytes([16 << 1]) + descriptor_scan + nodes + nodes[:37])
+
+
+def capsule(start_deg, new_turn):
+    a = int(start_deg * 64)
+    body = bytearray([0, 0, a & 0xFF, (a >> 8) | (0x80 if new_turn else 0)])
+    for c in range(16):
+        body += struct.pack("<HHB", (500 + c) << 2, (510 + c) << 2, 0)
+    chk = 0
+    for b in body[2:]:
+        chk ^= b
+    body[0] = 0xA0 | (chk & 0x0F)
+    body[1] = 0x50 | (chk >> 4)
+    return bytes(body)
+
+
+put("rplidar", "express.bin", bytes([1 | (31 << 1)]) + b"".join(capsule(i * 11.25, i == 0) for i in range(40)))
+
+frame = {"timestamp": 1.0, "R1_actual_q": [0, 0, 1.57, 0, 1.57, 0], "R1_actual_qd": [0] * 6,
+         "R1_robot_mode": "Running", "R1_safety_mode": "Normal"}
+stream = json.dumps({"jsonrpc": "2.0", "result": 0, "id": 1}) + "\n" + "".join(json.dumps(frame) + "\n" for _ in range(5))
+put("aubo_messages", "state.txt", bytes([63]) + stream.encode())
+replies = [{"jsonrpc": "2.0", "result": 3, "id": 1},
+           {"jsonrpc": "2.0", "error": {"code": -1, "message": "no such buffer"}, "id": 1},
+           {"jsonrpc": "2.0", "result": [0.1, 0.2, 0.3, 0.4, 0.5, 0.6], "id": 1}]
+put("aubo_messages", "replies.txt", bytes([7]) + "".join(json.dumps(r) for r in replies).encode())
+
+if args.real:
+    real = args.real
+    for path in sorted(glob.glob(os.path.join(real, "bags", "*.bag"))):
+        put("ros_bag", "real_" + os.path.basename(path), b"\0" + open(path, "rb").read())
+    for path in sorted(glob.glob(os.path.join(real, "bags", "*", "*.db3"))):
+        put("ros_bag", "real_" + os.path.basename(path), b"\1" + open(path, "rb").read())
+    for path in sorted(glob.glob(os.path.join(real, "rplidar", "scan_node_stream", "*.bin"))):
+        put("rplidar", "real_" + os.path.basename(path), bytes([32 << 1]) + open(path, "rb").read()[:60000])
+    hexfile = os.path.join(real, "rplidar", "a2_class_capture_hex.txt")
+    if os.path.exists(hexfile):
+        tokens = []
+        for line in open(hexfile):
+            tokens += [t for t in line.split("->")[0].split() if len(t) == 2]
+        put("rplidar", "real_capture.bin", bytes([8 << 1]) + bytes.fromhex("".join(tokens)))
+    for path in sorted(glob.glob(os.path.join(real, "aubo_arcs", "*.jsonl"))):
+        put("aubo_messages", "real_" + os.path.basename(path), bytes([31]) + open(path, "rb").read()[:60000])

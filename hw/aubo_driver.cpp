@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "core/error.hpp"
+#include "hw/aubo_protocol.hpp"
 #include "hw/json_link.hpp"
 #include "hw/robot_driver.hpp"
 
@@ -24,12 +25,7 @@ constexpr int kBufferType = 2;            // joint waypoints at a fixed time int
 constexpr size_t kAppendChunk = 200;      // waypoints per pathBufferAppend (1 s of plan)
 constexpr double kStopAcceleration = 3;   // [rad/s^2] stopJoint: a controlled stop
 constexpr double kHaltedVelocity = 1e-3;  // [rad/s] every joint slower than this: the arm stands
-
-/// The controller answered a request with an error.
-struct Refused : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
-
+constexpr double kSilentStream_s = 0.1;   // [s] no state frame for this long: ask the motion id instead
 class RpcChannel {
  public:
   explicit RpcChannel(double timeout_s) : timeout_s_(timeout_s) {}
@@ -50,14 +46,7 @@ class RpcChannel {
       if (left <= 0) throw LinkError("no answer to " + method + " within " + seconds(wait));
       const std::optional<std::string> text = link_.receive(left);
       if (!text) continue;
-      json reply = json::parse(*text, nullptr, false);
-      if (reply.is_discarded() || !reply.is_object()) throw LinkError("the controller sent malformed JSON");
-      if (!reply.contains("id") || reply["id"] != id) continue;  // a notification, or a late answer
-      if (reply.contains("error")) {
-        const json& e = reply["error"];
-        throw Refused(method + " refused: " + (e.is_object() ? e.value("message", e.dump()) : e.dump()));
-      }
-      return reply.value("result", json());
+      if (std::optional<json> result = aubo::parse_reply(*text, id, method)) return *result;
     }
   }
   static std::string seconds(double s) {
@@ -71,22 +60,6 @@ class RpcChannel {
   double timeout_s_;
   int next_id_ = 0;
 };
-
-/// One RTDE frame, as far as we read it.
-struct StateFrame {
-  JointVector q = JointVector::Zero(), qd = JointVector::Zero();
-  std::string robot_mode, safety_mode;
-};
-
-JointVector joint_vector(const json& a, const std::string& what) {
-  if (!a.is_array() || a.size() != 6) throw LinkError(what + " is not six numbers");
-  JointVector q;
-  for (int i = 0; i < 6; ++i) {
-    if (!a[i].is_number()) throw LinkError(what + " is not six numbers");
-    q[i] = a[i].get<double>();
-  }
-  return q;
-}
 
 json waypoints(const JointTrajectory& t, size_t from, size_t to) {
   json a = json::array();
@@ -139,7 +112,7 @@ class AuboDriver : public RobotDriver {
       login();
     } catch (const LinkError& e) {
       throw InputError(describe() + ": cannot reach the controller's command port: " + e.what());
-    } catch (const Refused& e) {
+    } catch (const aubo::Refused& e) {
       throw InputError(describe() + ": " + e.what() + " (user '" + set_.user + "')");
     }
     std::string mode, safety;
@@ -176,7 +149,8 @@ class AuboDriver : public RobotDriver {
 
   JointVector joint_positions() override {
     try {
-      return joint_vector(rpc_.call("rob1.RobotState.getJointPositions", json::array()), "getJointPositions");
+      return aubo::joint_vector(rpc_.call("rob1.RobotState.getJointPositions", json::array()),
+                                "getJointPositions");
     } catch (const std::exception& e) {
       throw RobotError(describe() + ": cannot read the joint positions: " + e.what());
     }
@@ -206,6 +180,25 @@ class AuboDriver : public RobotDriver {
                        const std::function<void(double, const JointState&)>& on_state) override {
     if (t.q.empty()) throw std::invalid_argument("an empty trajectory");
     ExecutionLog log;
+    try {
+      run(t, on_state, log);
+    } catch (const RobotError& e) {
+      throw RobotError(e.what(), std::move(log));
+    } catch (const std::exception& e) {
+      // Nothing else may leave the arm moving: whatever it was, the arm is stopped first.
+      try {
+        abort_motion(std::string("an unexpected error (") + e.what() + ")");
+      } catch (const RobotError& stopped) {
+        throw RobotError(stopped.what(), std::move(log));
+      }
+    }
+    return log;
+  }
+
+ private:
+  /// execute()'s work: `log` holds what was sent and seen, also when it throws.
+  void run(const JointTrajectory& t, const std::function<void(double, const JointState&)>& on_state,
+           ExecutionLog& log) {
     // Nothing moves unless the arm stands where the trajectory starts.
     if (!latest_frame(set_.timeout_s))
       throw RobotError(describe() + ": the state stream is silent; nothing was sent");
@@ -220,7 +213,7 @@ class AuboDriver : public RobotDriver {
       try {
         rpc_.call("rob1.MotionControl.pathBufferFree", json::array({kBuffer}));
         log.exchanges.push_back("pathBufferFree");
-      } catch (const Refused&) {  // no buffer of that name yet
+      } catch (const aubo::Refused&) {  // no buffer of that name yet
       }
       for (const auto& [method, params] : load_requests(t, set_.speed_fraction)) {
         rpc_.call(method, params);
@@ -231,12 +224,12 @@ class AuboDriver : public RobotDriver {
       const double t_valid = host_seconds();
       while (!rpc_.call("rob1.MotionControl.pathBufferValid", json::array({kBuffer})).get<bool>()) {
         if (host_seconds() - t_valid > set_.timeout_s)
-          throw Refused("the controller did not accept the path within " +
-                        RpcChannel::seconds(set_.timeout_s));
+          throw aubo::Refused("the controller did not accept the path within " +
+                              RpcChannel::seconds(set_.timeout_s));
         std::this_thread::sleep_for(std::chrono::milliseconds(20));
       }
       log.exchanges.push_back("pathBufferValid");
-    } catch (const Refused& e) {
+    } catch (const aubo::Refused& e) {
       free_buffer();
       throw RobotError(describe() + ": " + e.what() + "; the arm did not move");
     } catch (const LinkError& e) {
@@ -319,10 +312,8 @@ class AuboDriver : public RobotDriver {
       std::snprintf(b, sizeof b, ": the path ended with the arm %.3f rad from its last sample", end_off);
       throw RobotError(describe() + b);
     }
-    return log;
   }
 
- private:
   void login() {
     rpc_.open(host_, rpc_port_);
     rpc_.call("login", json::array({set_.user, set_.password}));
@@ -333,17 +324,7 @@ class AuboDriver : public RobotDriver {
     for (;;) {
       const std::optional<std::string> text = rtde_.receive(wait_s);
       if (!text) return false;
-      const json f = json::parse(*text, nullptr, false);
-      if (f.is_discarded() || !f.is_object()) throw LinkError("malformed state frame");
-      if (f.contains("id")) {  // the subscription's answer
-        if (f.contains("error")) throw LinkError("subscription refused: " + f["error"].dump());
-        continue;
-      }
-      frame_.q = joint_vector(f.value("R1_actual_q", json()), "R1_actual_q");
-      frame_.qd = joint_vector(f.value("R1_actual_qd", json()), "R1_actual_qd");
-      frame_.robot_mode = f.value("R1_robot_mode", std::string("?"));
-      frame_.safety_mode = f.value("R1_safety_mode", std::string("?"));
-      return true;
+      if (aubo::parse_state_frame(*text, frame_)) return true;
     }
   }
 
@@ -384,10 +365,11 @@ class AuboDriver : public RobotDriver {
                        "): stop the arm with the emergency stop");
     }
     // Wait for it to halt: the state stream's velocities, or the controller's motion id where the stream is
-    // gone.
+    // gone or silent.
     const double t0 = host_seconds();
     std::string halted = "not confirmed within " + RpcChannel::seconds(set_.timeout_s);
     int still = 0;
+    double last_frame = t0;
     while (host_seconds() - t0 < set_.timeout_s) {
       bool got = false;
       try {
@@ -396,12 +378,13 @@ class AuboDriver : public RobotDriver {
         rtde_.close();
       }
       if (got) {
+        last_frame = host_seconds();
         still = frame_.qd.cwiseAbs().maxCoeff() < kHaltedVelocity ? still + 1 : 0;
         if (still >= 3) {
           halted = "the arm halted";
           break;
         }
-      } else if (!rtde_.is_open()) {
+      } else if (!rtde_.is_open() || host_seconds() - last_frame > kSilentStream_s) {
         try {
           if (rpc_.call("rob1.MotionControl.getExecId", json::array()).get<int>() < 0) {
             halted = "the controller reports no motion";
@@ -421,7 +404,7 @@ class AuboDriver : public RobotDriver {
   RobotDriverSetting set_;
   RpcChannel rpc_;
   JsonLink rtde_;
-  StateFrame frame_;
+  aubo::StateFrame frame_;
 };
 
 }  // namespace

@@ -21,7 +21,8 @@ class JsonFramer {
  public:
   void feed(const char* data, size_t n);
   /// The next whole object's text; false when more bytes are needed. Bytes outside objects (newlines,
-  /// spaces, garbage) are skipped.
+  /// spaces, garbage) are skipped. Brackets are counted, not matched: `{"a":1]` comes out as one text, which
+  /// the JSON parser then refuses.
   bool next(std::string& object);
   /// Bytes held for an object not yet complete (bounded by the caller: a peer that never closes one).
   size_t pending() const { return buf_.size() - start_; }

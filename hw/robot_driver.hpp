@@ -34,13 +34,6 @@ struct SimRobotInputs {
   Iso3 T_base_part = Iso3::Identity();
 };
 
-/// The robot failed or was stopped while executing (fault, dropped connection, timeout, SIGINT). The arm has
-/// been stopped (as far as the controller could be reached; the message says if not).
-class RobotError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-
 /// Joint positions at equal time steps: what is sent to the robot.
 struct JointTrajectory {
   double dt_s = 0.005;  ///< 200 Hz, as plans are sampled
@@ -65,6 +58,19 @@ struct ExecutionLog {
   size_t samples_sent = 0;
   double wall_s = 0.0;
   std::vector<std::string> exchanges;  ///< every command sent, in order (method names), for the record
+};
+
+/// The robot failed or was stopped while executing (fault, dropped connection, timeout, SIGINT). The arm has
+/// been stopped (as far as the controller could be reached; the message says if not). It carries what was
+/// recorded up to then (commands sent, joint states seen), so that a failed run's record loses nothing.
+class RobotError : public std::runtime_error {
+ public:
+  explicit RobotError(const std::string& what, ExecutionLog log = {})
+      : std::runtime_error(what), log_(std::move(log)) {}
+  const ExecutionLog& log() const { return log_; }
+
+ private:
+  ExecutionLog log_;
 };
 
 class RobotDriver {

@@ -11,6 +11,7 @@
 #include <atomic>
 
 #include "core/error.hpp"
+#include "hw/aubo_protocol.hpp"
 #include "hw/json_link.hpp"
 #include "perception/mesh_io.hpp"
 #include "planning/weld_planner.hpp"
@@ -227,6 +228,69 @@ TEST(AuboDriver, AStopRequestHaltsTheArm) {
                                       if (js.t_s > 0.3) stop = true;
                                     });
   EXPECT_TRUE(contains(e, "stopped on request (SIGINT); stop sent, the arm halted")) << e;
+}
+
+TEST(AuboDriver, GarbageOnTheStateStreamStopsTheArmAndKeepsTheRecord) {
+  // A state frame whose mode is a number: read before as an uncaught JSON type error, with the arm moving.
+  test::FakeAuboSetting fs = fake_at_home(2.0);
+  fs.garbage_rtde_at = 0.3;
+  fs.garbage = R"({"R1_actual_q":[0,0,1.5,0,1.5,0],"R1_actual_qd":[0,0,0,0,0,0],"R1_robot_mode":7,)"
+               R"("R1_safety_mode":"Normal"})";
+  test::FakeAubo fake(fs);
+  auto driver = driver_for(fake);
+  driver->connect();
+  try {
+    driver->execute(a_move());
+    ADD_FAILURE() << "no error thrown";
+  } catch (const RobotError& e) {
+    EXPECT_TRUE(contains(e.what(), "malformed state frame: no R1_robot_mode")) << e.what();
+    EXPECT_TRUE(contains(e.what(), "stop sent")) << e.what();
+    // The record keeps what was seen up to the fault: states from the start to about 30 % of the path.
+    ASSERT_GT(e.log().joints.size(), 10u);
+    EXPECT_GT(e.log().joints.back().t_s, 0.2);
+    EXPECT_EQ(e.log().exchanges.back(), "movePathBuffer");
+  }
+  EXPECT_GE(fake.stops(), 1);
+  EXPECT_FALSE(fake.moving());
+  EXPECT_LT(fake.progress(), 0.9);
+}
+
+TEST(AuboDriver, AControllerThatFallsSilentMidRunIsStoppedOverANewConnection) {
+  // Both connections stall at 20 % of a 2 s path: the silence is noticed after the timeout (0.25 s), the stop
+  // on the stalled command connection times out, and goes over a new one; the halt is confirmed by the
+  // controller's motion id, the state stream being silent.
+  test::FakeAuboSetting fs = fake_at_home(1.0);
+  fs.mute_at = 0.2;
+  test::FakeAubo fake(fs);
+  auto driver = driver_for(fake, quick(0.25));
+  driver->connect();
+  const std::string e = error_of<RobotError>([&] { driver->execute(a_move()); });
+  // Whichever connection's silence is noticed first (the state stream's, or the motion id's poll).
+  EXPECT_TRUE(contains(e, "the state stream is silent") || contains(e, "no answer to")) << e;
+  EXPECT_TRUE(contains(e, "stop sent, the controller reports no motion")) << e;
+  EXPECT_GE(fake.stops(), 1);
+  EXPECT_FALSE(fake.moving());
+  EXPECT_LT(fake.progress(), 0.8);
+}
+
+TEST(AuboProtocol, MalformedMessagesAreLinkErrorsAndRefusalsAreRefused) {
+  aubo::StateFrame f;
+  EXPECT_TRUE(aubo::parse_state_frame(
+      R"({"R1_actual_q":[1,2,3,4,5,6],"R1_actual_qd":[0,0,0,0,0,0],"R1_robot_mode":"Running",)"
+      R"("R1_safety_mode":"Normal"})",
+      f));
+  EXPECT_EQ(f.q[5], 6.0);
+  EXPECT_FALSE(aubo::parse_state_frame(R"({"jsonrpc":"2.0","result":0,"id":1})", f));  // the subscription
+  for (const char* bad : {R"({"R1_actual_q":[1,2,3,4,5],"R1_actual_qd":[0,0,0,0,0,0]})",
+                          R"({"R1_actual_q":[1,2,3,4,5,"6"],"R1_actual_qd":[0,0,0,0,0,0]})",
+                          R"({"R1_actual_q":[1,2,3,4,5,6],"R1_actual_qd":[0,0,0,0,0,0],"R1_robot_mode":[]})",
+                          R"({"a":1])", "[1,2]"})
+    EXPECT_THROW(aubo::parse_state_frame(bad, f), LinkError) << bad;
+  EXPECT_EQ(f.q[5], 6.0) << "a malformed frame must leave the last good one";
+  EXPECT_FALSE(aubo::parse_reply(R"({"jsonrpc":"2.0","result":5,"id":2})", 1, "m"));  // another request's
+  EXPECT_EQ(aubo::parse_reply(R"({"jsonrpc":"2.0","result":5,"id":1})", 1, "m")->get<int>(), 5);
+  EXPECT_THROW(aubo::parse_reply(R"({"error":{"code":-1,"message":7},"id":1})", 1, "m"), aubo::Refused);
+  EXPECT_THROW(aubo::parse_reply("{\"id\":1", 1, "m"), LinkError);
 }
 
 TEST(AuboDriver, ADryRunListsTheRequestsWithoutConnecting) {

@@ -87,6 +87,9 @@ void FakeAubo::advance(double now_s) {
   progress_ = frac;
   if (hits(set_.drop_rpc_at)) drop_rpc_now_ = true;
   if (hits(set_.drop_rtde_at)) drop_rtde_now_ = true;
+  if (hits(set_.mute_at)) mute_rpc_now_ = mute_rtde_now_ = true;
+  if (hits(set_.garbage_rpc_at)) garbage_rpc_now_ = true;
+  if (hits(set_.garbage_rtde_at)) garbage_rtde_now_ = true;
   if (hits(set_.fault_at)) {
     safety_ = "ProtectiveStop";
     moving_ = false;
@@ -214,9 +217,10 @@ void FakeAubo::serve_rpc() {
   while (!quit_) {
     std::optional<JsonLink> client = rpc_.accept(0.05);
     if (!client) continue;
-    bool logged_in = false;
+    bool logged_in = false, stalled = false;
     try {
       while (!quit_) {
+        bool garbage = false;
         {
           std::lock_guard<std::mutex> l(m_);
           advance(host_seconds());
@@ -224,11 +228,18 @@ void FakeAubo::serve_rpc() {
             drop_rpc_now_ = false;
             break;
           }
+          if (mute_rpc_now_) stalled = true, mute_rpc_now_ = false;
+          garbage = garbage_rpc_now_;
         }
         const std::optional<std::string> text = client->receive(0.01);
-        if (!text || set_.mute) continue;
+        if (!text || set_.mute || stalled) continue;
         bool drop = false;
-        client->send(handle(*text, logged_in, drop));
+        const std::string answer = handle(*text, logged_in, drop);
+        if (garbage) {
+          std::lock_guard<std::mutex> l(m_);
+          garbage_rpc_now_ = false;
+        }
+        client->send(garbage ? set_.garbage : answer);
         if (drop) break;
       }
     } catch (const LinkError&) {  // the client left
@@ -240,6 +251,7 @@ void FakeAubo::serve_rtde() {
   while (!quit_) {
     std::optional<JsonLink> client = rtde_.accept(0.05);
     if (!client) continue;
+    bool stalled = false;
     try {
       // The subscription.
       std::optional<std::string> text;
@@ -265,6 +277,7 @@ void FakeAubo::serve_rtde() {
       for (double next = host_seconds(); !quit_; next += 0.005) {
         std::this_thread::sleep_for(std::chrono::duration<double>(std::max(0.0, next - host_seconds())));
         json frame;
+        bool garbage = false;
         {
           std::lock_guard<std::mutex> l(m_);
           advance(host_seconds());
@@ -272,13 +285,23 @@ void FakeAubo::serve_rtde() {
             drop_rtde_now_ = false;
             break;
           }
+          if (mute_rtde_now_) {
+            mute_rtde_now_ = false;
+            stalled = true;
+          }
+          garbage = garbage_rtde_now_;
+          garbage_rtde_now_ = false;
           frame = {{"timestamp", host_seconds()},
                    {"R1_actual_q", std::vector<double>(q_.data(), q_.data() + 6)},
                    {"R1_actual_qd", std::vector<double>(qd_.data(), qd_.data() + 6)},
                    {"R1_robot_mode", set_.robot_mode},
                    {"R1_safety_mode", safety_}};
         }
-        client->send(frame.dump(), 0.5);
+        if (stalled) {  // open and silent until the client leaves
+          client->receive(0.05);
+          continue;
+        }
+        client->send(garbage ? set_.garbage : frame.dump(), 0.5);
       }
     } catch (const LinkError&) {  // the client left
     }

@@ -24,6 +24,10 @@ struct FakeAuboSetting {
   double drop_rpc_at = -1.0;   ///< at this fraction: the command connection is closed (the arm keeps moving)
   double drop_rtde_at = -1.0;  ///< at this fraction: the state stream is closed
   bool mute = false;           ///< takes connections, answers nothing
+  double mute_at = -1.0;       ///< at this fraction: both connections stall (open, silent) until closed
+  double garbage_rpc_at = -1.0;   ///< at this fraction: the next answer is `garbage` instead
+  double garbage_rtde_at = -1.0;  ///< at this fraction: the next state frame is `garbage` instead
+  std::string garbage = "\x01\xff{\"R1_actual_q\":";  ///< what is sent instead (any bytes)
   std::string robot_mode = "Running";
 };
 
@@ -74,6 +78,8 @@ class FakeAubo {
   double move_start_s_ = 0.0, progress_ = 0.0;
   int exec_id_ = 0, stops_ = 0, refused_logins_ = 0;
   bool drop_rpc_now_ = false, drop_rtde_now_ = false;
+  bool mute_rpc_now_ = false, mute_rtde_now_ = false;        // stall the current connection
+  bool garbage_rpc_now_ = false, garbage_rtde_now_ = false;  // the next message is garbage
   std::vector<std::string> methods_, errors_;
 };
 

@@ -1,0 +1,43 @@
+// Writes small seed bags for fuzz_ros_bag with weldtwin's own writers (as `weldtwin scan --rosbag1/2` records
+// a twin sweep): three LiDAR turns of 16 beams and joint states, as a ROS 1 bag and a ROS 2 database, each
+// prefixed with the harness's format byte.
+//   seed_bags OUT_DIR
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+#include "hw/ros_bags.hpp"
+
+int main(int argc, char** argv) {
+  namespace fs = std::filesystem;
+  if (argc != 2) return 2;
+  weldtwin::ScanLog log;
+  log.joint_names = {"shoulder_joint", "upperArm_joint", "foreArm_joint",
+                     "wrist1_joint",   "wrist2_joint",   "wrist3_joint"};
+  for (int t = 0; t < 3; ++t) {
+    log.turns.push_back({0.1 * t, static_cast<uint32_t>(16 * t), 16});
+    for (int i = 0; i < 16; ++i)
+      log.samples.push_back({0.1 * t + 0.1 * i / 16, static_cast<float>(0.39269908 * i),
+                             static_cast<float>(0.5 + 0.01 * i), 40});
+  }
+  for (int k = 0; k < 4; ++k) {
+    weldtwin::JointState js;
+    js.t_s = 0.1 * k;
+    js.q.setConstant(0.01 * k);
+    log.joints.push_back(js);
+  }
+  const fs::path out = argv[1], tmp = out / "tmp";
+  fs::create_directories(tmp);
+  auto put = [&](const fs::path& from, const char* name, char format) {
+    std::ifstream in(from, std::ios::binary);
+    std::ofstream o(out / name, std::ios::binary);
+    o << format << std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  weldtwin::write_ros1_bag((tmp / "seed.bag").string(), log);
+  put(tmp / "seed.bag", "twin.bag", '\0');
+  weldtwin::write_ros2_bag((tmp / "ros2").string(), log);
+  for (const auto& e : fs::directory_iterator(tmp / "ros2"))
+    if (e.path().extension() == ".db3") put(e.path(), "twin.db3", '\1');
+  fs::remove_all(tmp);
+  return 0;
+}
