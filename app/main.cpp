@@ -101,7 +101,10 @@ int main(int argc, char** argv) {
   sc->add_option("--rosbag", scan.rosbag1,
                  "also write the sweep as a ROS 1 bag (.bag: sensor_msgs/LaserScan on /scan, one per turn; "
                  "sensor_msgs/JointState on /joint_states)");
-  sc->add_option("--rosbag2", scan.rosbag2, "also write the sweep as a ROS 2 bag directory (sqlite3, CDR)");
+  sc->add_option("--rosbag2", scan.rosbag2, "also write the sweep as a ROS 2 bag directory (CDR messages)");
+  sc->add_option("--rosbag2-storage", scan.rosbag2_storage, "the ROS 2 bag's storage: sqlite3 or mcap")
+      ->check(CLI::IsMember({"sqlite3", "mcap"}))
+      ->capture_default_str();
   sc->add_flag("--noise-free", scan.noise_free,
                "exact ranges: no noise, quantisation, dropouts or mixed pixels");
   sc->add_option("--threads", scan.threads, "ray-casting threads (default: all cores)");

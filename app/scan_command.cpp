@@ -77,8 +77,9 @@ int run_scan(const ScanCommand& cmd) {
     say("wrote the sweep as a ROS 1 bag to " + cmd.rosbag1);
   }
   if (!cmd.rosbag2.empty()) {
-    write_ros2_bag(cmd.rosbag2, sweep.log);
-    say("wrote the sweep as a ROS 2 bag to " + cmd.rosbag2);
+    write_ros2_bag(cmd.rosbag2, sweep.log, 1.7e9,
+                   cmd.rosbag2_storage == "mcap" ? Ros2Storage::kMcap : Ros2Storage::kSqlite3);
+    say("wrote the sweep as a ROS 2 bag (" + cmd.rosbag2_storage + ") to " + cmd.rosbag2);
   }
 
   if (cmd.cloud.empty() && cmd.truth.empty()) return 0;

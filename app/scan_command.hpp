@@ -17,6 +17,7 @@ struct ScanCommand {
   std::string mjcf;     ///< "" = none: where to save the composed MJCF
   std::string rosbag1;  ///< "" = none: the sweep as a ROS 1 bag too (/scan, /joint_states)
   std::string rosbag2;  ///< "" = none: the sweep as a ROS 2 bag directory too (sqlite3, CDR)
+  std::string rosbag2_storage = "sqlite3";  ///< the ROS 2 bag's storage: sqlite3 or mcap
   bool noise_free = false;
   int threads = 0;
   bool quiet = false;

@@ -1,5 +1,6 @@
-// Recorded sweeps from ROS: the first byte picks a ROS 1 bag (even) or a ROS 2 sqlite3 bag (odd), the rest is
-// the file. Bad input must end in InputError; a log that is read has turns within its samples.
+// Recorded sweeps from ROS: the first byte picks a ROS 1 bag (0 mod 3), a ROS 2 sqlite3 bag (1) or a ROS 2
+// MCAP bag (2); the rest is the file. Bad input must end in InputError; a log that is read has turns within
+// its samples.
 #include <cstdlib>
 
 #include "core/cell_spec.hpp"
@@ -11,8 +12,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const RobotModel robot = RobotModel::load(
       CellSpec::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml").robot_urdf);
   if (size < 1) return 0;
-  const bool ros2 = data[0] % 2 == 1;
-  const std::string path = fuzz::write(ros2 ? "in.db3" : "in.bag", data + 1, size - 1);
+  const int format = data[0] % 3;
+  const bool ros2 = format != 0;
+  const std::string path = fuzz::write(format == 0   ? "in.bag"
+                                       : format == 1 ? "in.db3"
+                                                     : "in.mcap",
+                                       data + 1, size - 1);
   return fuzz::expect_input_errors_only([&] {
     const ScanLog log = ros2 ? read_ros2_bag(path, robot) : read_ros1_bag(path, robot);
     for (const LidarTurn& t : log.turns)

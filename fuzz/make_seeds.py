@@ -2,10 +2,11 @@
 """Seed corpora for the fuzz harnesses, small valid files of each kind (libFuzzer mutates from them):
     fuzz/make_seeds.py OUT_DIR [--seed-bags BIN] [--real DIR]
 Harnesses that read their first byte as a format or a chunk size get it prefixed (cloud: even PCD, odd PLY;
-mesh: 0 STL, 1 PLY, 2 OBJ; pose_plan: even pose, odd plan; ros_bag: even ROS 1, odd ROS 2; rplidar: even
-SCAN, odd EXPRESS, and the chunk size; aubo_messages: the chunk size). The shipped part meshes, part and cell
-specs are added as they are; --seed-bags runs fuzz/seed_bags (bags from weldtwin's own writers); --real adds
-files made outside the project from DIR (its bags/ and rplidar/, as the real-data README lays them out)."""
+mesh: 0 STL, 1 PLY, 2 OBJ; pose_plan: even pose, odd plan; ros_bag, by the byte mod 3: ROS 1, ROS 2 sqlite3,
+ROS 2 MCAP; rplidar: even SCAN, odd EXPRESS, and the chunk size; aubo_messages: the chunk size). The shipped
+part meshes, part and cell specs are added as they are; --seed-bags runs fuzz/seed_bags (bags from weldtwin's
+own writers); --real adds files made outside the project from DIR (its bags/ and rplidar/, as the real-data
+README lays them out)."""
 import argparse
 import glob
 import json
@@ -121,6 +122,8 @@ if args.real:
         put("ros_bag", "real_" + os.path.basename(path), b"\0" + open(path, "rb").read())
     for path in sorted(glob.glob(os.path.join(real, "bags", "*", "*.db3"))):
         put("ros_bag", "real_" + os.path.basename(path), b"\1" + open(path, "rb").read())
+    for path in sorted(glob.glob(os.path.join(real, "bags", "*", "*.mcap"))):
+        put("ros_bag", "real_" + os.path.basename(path), b"\2" + open(path, "rb").read())
     for path in sorted(glob.glob(os.path.join(real, "rplidar", "scan_node_stream", "*.bin"))):
         put("rplidar", "real_" + os.path.basename(path), bytes([32 << 1]) + open(path, "rb").read()[:60000])
     hexfile = os.path.join(real, "rplidar", "a2_class_capture_hex.txt")
@@ -130,4 +133,6 @@ if args.real:
             tokens += [t for t in line.split("->")[0].split() if len(t) == 2]
         put("rplidar", "real_capture.bin", bytes([8 << 1]) + bytes.fromhex("".join(tokens)))
     for path in sorted(glob.glob(os.path.join(real, "aubo_arcs", "*.jsonl"))):
-        put("aubo_messages", "real_" + os.path.basename(path), bytes([31]) + open(path, "rb").read()[:60000])
+        data = open(path, "rb").read()
+        for k in range(0, min(len(data), 40000), 4000):  # the harness reads up to 4 kB
+            put("aubo_messages", "real_%d_%s" % (k, os.path.basename(path)), bytes([31]) + data[k:k + 4000])

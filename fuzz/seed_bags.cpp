@@ -1,6 +1,6 @@
 // Writes small seed bags for fuzz_ros_bag with weldtwin's own writers (as `weldtwin scan --rosbag1/2` records
-// a twin sweep): three LiDAR turns of 16 beams and joint states, as a ROS 1 bag and a ROS 2 database, each
-// prefixed with the harness's format byte.
+// a twin sweep): three LiDAR turns of 16 beams and joint states, as a ROS 1 bag and ROS 2 sqlite3 and MCAP
+// bags, each prefixed with the harness's format byte.
 //   seed_bags OUT_DIR
 #include <filesystem>
 #include <fstream>
@@ -38,6 +38,9 @@ int main(int argc, char** argv) {
   weldtwin::write_ros2_bag((tmp / "ros2").string(), log);
   for (const auto& e : fs::directory_iterator(tmp / "ros2"))
     if (e.path().extension() == ".db3") put(e.path(), "twin.db3", '\1');
+  weldtwin::write_ros2_bag((tmp / "mcap").string(), log, 1.7e9, weldtwin::Ros2Storage::kMcap);
+  for (const auto& e : fs::directory_iterator(tmp / "mcap"))
+    if (e.path().extension() == ".mcap") put(e.path(), "twin.mcap", '\2');
   fs::remove_all(tmp);
   return 0;
 }

@@ -299,6 +299,9 @@ class AuboDriver : public RobotDriver {
       for (const double t_end = host_seconds(); host_seconds() - t_end < set_.timeout_s;) {
         if (!next_frame(0.02)) continue;
         record(host_seconds());
+        // A fault that ended the path before its frame was read (the motion id changes with it).
+        if (frame_.safety_mode != "Normal")
+          abort_motion("controller fault: safety mode " + frame_.safety_mode);
         end_off = (frame_.q - t.q.back()).cwiseAbs().maxCoeff();
         if (end_off <= set_.start_tolerance_rad && frame_.qd.cwiseAbs().maxCoeff() < kHaltedVelocity) break;
       }
@@ -309,8 +312,8 @@ class AuboDriver : public RobotDriver {
     }
     if (end_off > set_.start_tolerance_rad) {
       char b[200];
-      std::snprintf(b, sizeof b, ": the path ended with the arm %.3f rad from its last sample", end_off);
-      throw RobotError(describe() + b);
+      std::snprintf(b, sizeof b, "the path ended with the arm %.3f rad from its last sample", end_off);
+      abort_motion(b);
     }
   }
 

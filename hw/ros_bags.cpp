@@ -16,6 +16,7 @@
 
 #include "core/error.hpp"
 #include "core/files.hpp"
+#include "hw/mcap.hpp"
 
 namespace weldtwin {
 namespace {
@@ -255,6 +256,83 @@ void cdr_header(CdrWriter& w, int64_t ns, const std::string& frame) {
   w.str(frame);
 }
 
+constexpr const char* kLaserScanType = "sensor_msgs/msg/LaserScan";
+constexpr const char* kJointStateType = "sensor_msgs/msg/JointState";
+
+ScanMsg cdr_laser_scan(const uint8_t* data, size_t size, const std::string& file) {
+  CdrReader r(data, size, file);
+  ScanMsg m;
+  m.stamp_ns = cdr_stamp(r);
+  m.angle_min = r.get<float>();
+  r.get<float>();  // angle_max
+  m.angle_increment = r.get<float>();
+  m.time_increment = r.get<float>();
+  r.get<float>();  // scan_time
+  m.range_min = r.get<float>();
+  m.range_max = r.get<float>();
+  m.ranges = r.seq<float>();
+  m.intensities = r.seq<float>();
+  return m;
+}
+
+JointMsg cdr_joint_state(const uint8_t* data, size_t size, const std::string& file) {
+  CdrReader r(data, size, file);
+  JointMsg m;
+  m.stamp_ns = cdr_stamp(r);
+  const uint32_t names = r.get<uint32_t>();
+  if (names > 1000) throw input_error(file, "a JointState with " + std::to_string(names) + " names");
+  for (uint32_t k = 0; k < names; ++k) m.names.push_back(r.str());
+  m.position = r.seq<double>();
+  return m;
+}
+
+std::vector<uint8_t> cdr_of(const ScanMsg& m, const std::string& frame) {
+  CdrWriter w;
+  cdr_header(w, m.stamp_ns, frame);
+  w.put<float>(m.angle_min);
+  w.put<float>(m.angle_min + m.angle_increment * static_cast<float>(m.ranges.size() - 1));
+  w.put<float>(m.angle_increment);
+  w.put<float>(m.time_increment);
+  w.put<float>(m.time_increment * static_cast<float>(m.ranges.size()));
+  w.put<float>(m.range_min);
+  w.put<float>(m.range_max);
+  w.seq(m.ranges);
+  w.seq(m.intensities);
+  return w.bytes();
+}
+
+std::vector<uint8_t> cdr_of(const JointMsg& m) {
+  CdrWriter w;
+  cdr_header(w, m.stamp_ns, "");
+  w.put<uint32_t>(static_cast<uint32_t>(m.names.size()));
+  for (const std::string& n : m.names) w.str(n);
+  w.seq(m.position);
+  w.seq(std::vector<double>());  // velocity
+  w.seq(std::vector<double>());  // effort
+  return w.bytes();
+}
+
+/// The ROS 2 bag's metadata.yaml, as rosbag2 writes it (its readers check storage_identifier and the files).
+void write_ros2_metadata(const std::string& dir, const std::string& storage, const std::string& file,
+                         size_t scans, size_t joints, int64_t first, int64_t last) {
+  const size_t count = scans + joints;
+  std::ofstream meta(std::filesystem::path(dir) / "metadata.yaml");
+  meta << "rosbag2_bagfile_information:\n  version: 5\n  storage_identifier: " << storage
+       << "\n  duration:\n    nanoseconds: " << last - first
+       << "\n  starting_time:\n    nanoseconds_since_epoch: " << first << "\n  message_count: " << count
+       << "\n  topics_with_message_count:\n"
+       << "    - topic_metadata:\n        name: /scan\n        type: " << kLaserScanType
+       << "\n        serialization_format: cdr\n        offered_qos_profiles: \"\"\n      message_count: "
+       << scans << "\n"
+       << "    - topic_metadata:\n        name: /joint_states\n        type: " << kJointStateType
+       << "\n        serialization_format: cdr\n        offered_qos_profiles: \"\"\n      message_count: "
+       << joints << "\n  compression_format: \"\"\n  compression_mode: \"\"\n  relative_file_paths:\n    - "
+       << file << "\n  files:\n    - path: " << file
+       << "\n      starting_time:\n        nanoseconds_since_epoch: " << first
+       << "\n      duration:\n        nanoseconds: " << last - first << "\n      message_count: " << count
+       << "\n";
+}
+
 // --- sqlite ---
 
 struct Db {
@@ -280,16 +358,44 @@ void exec(sqlite3* db, const std::string& sql) {
   }
 }
 
-std::string find_db3(const std::string& path) {
+/// The storage file of a ROS 2 bag given as its directory or the file itself: one .db3 or one .mcap.
+std::string find_ros2_storage(const std::string& path) {
   namespace fs = std::filesystem;
   if (!fs::is_directory(path)) return path;
   std::vector<std::string> files;
   for (const auto& e : fs::directory_iterator(path))
-    if (e.path().extension() == ".db3") files.push_back(e.path().string());
-  if (files.empty())
-    throw input_error(path, "a ROS 2 bag directory without a .db3 file (only sqlite3 storage is read)");
-  if (files.size() > 1) throw input_error(path, "a ROS 2 bag split into several .db3 files (not read yet)");
+    if (e.path().extension() == ".db3" || e.path().extension() == ".mcap") files.push_back(e.path().string());
+  if (files.empty()) throw input_error(path, "a ROS 2 bag directory without a .db3 or .mcap file");
+  if (files.size() > 1)
+    throw input_error(path, "a ROS 2 bag split into several storage files (not read yet)");
   return files.front();
+}
+
+bool is_mcap(const std::string& file) {
+  std::ifstream in(file, std::ios::binary);
+  char head[5] = {};
+  in.read(head, 5);
+  return in.gcount() == 5 && std::memcmp(head, "\x89MCAP", 5) == 0;
+}
+
+ScanLog read_ros2_mcap(const std::string& file, const RobotModel& robot, const BagTopics& topics) {
+  const mcap::File bag = mcap::read(file);
+  int scan_id = -1, joint_id = -1;
+  for (const auto& [id, ch] : bag.channels) {
+    if (ch.message_encoding != "cdr") continue;
+    if (ch.schema_name == kLaserScanType && scan_id < 0 && (topics.scan.empty() || topics.scan == ch.topic))
+      scan_id = id;
+    if (ch.schema_name == kJointStateType && joint_id < 0 &&
+        (topics.joints.empty() || topics.joints == ch.topic))
+      joint_id = id;
+  }
+  std::vector<ScanMsg> scans;
+  std::vector<JointMsg> joints;
+  for (const mcap::Message& m : bag.messages) {
+    if (m.channel == scan_id) scans.push_back(cdr_laser_scan(m.data.data(), m.data.size(), file));
+    if (m.channel == joint_id) joints.push_back(cdr_joint_state(m.data.data(), m.data.size(), file));
+  }
+  return to_scan_log(std::move(scans), std::move(joints), robot, "rosbag2", file);
 }
 
 }  // namespace
@@ -475,7 +581,8 @@ void write_ros1_bag(const std::string& path, const ScanLog& log, double epoch_s)
 
 ScanLog read_ros2_bag(const std::string& path, const RobotModel& robot, const BagTopics& topics) {
   if (!path_exists(path)) throw input_error(path, "no such file or directory");
-  const std::string file = find_db3(path);
+  const std::string file = find_ros2_storage(path);
+  if (is_mcap(file)) return read_ros2_mcap(file, robot, topics);
   Db db;
   if (sqlite3_open_v2(file.c_str(), &db.db, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK)
     throw input_error(file, "cannot be opened as sqlite3");
@@ -496,10 +603,8 @@ ScanLog read_ros2_bag(const std::string& path, const RobotModel& robot, const Ba
       };
       const std::string name = text(1), type = text(2), format = text(3);
       if (format != "cdr") continue;
-      if (type == "sensor_msgs/msg/LaserScan" && scan_id < 0 && (topics.scan.empty() || topics.scan == name))
-        scan_id = id;
-      if (type == "sensor_msgs/msg/JointState" && joint_id < 0 &&
-          (topics.joints.empty() || topics.joints == name))
+      if (type == kLaserScanType && scan_id < 0 && (topics.scan.empty() || topics.scan == name)) scan_id = id;
+      if (type == kJointStateType && joint_id < 0 && (topics.joints.empty() || topics.joints == name))
         joint_id = id;
     }
     if (rc != SQLITE_DONE)
@@ -516,29 +621,11 @@ ScanLog read_ros2_bag(const std::string& path, const RobotModel& robot, const Ba
     const int topic = sqlite3_column_int(st.s, 0);
     if (topic != scan_id && topic != joint_id) continue;
     const auto* data = static_cast<const uint8_t*>(sqlite3_column_blob(st.s, 1));
-    CdrReader r(data, static_cast<size_t>(sqlite3_column_bytes(st.s, 1)), file);
-    if (topic == scan_id) {
-      ScanMsg m;
-      m.stamp_ns = cdr_stamp(r);
-      m.angle_min = r.get<float>();
-      r.get<float>();  // angle_max
-      m.angle_increment = r.get<float>();
-      m.time_increment = r.get<float>();
-      r.get<float>();  // scan_time
-      m.range_min = r.get<float>();
-      m.range_max = r.get<float>();
-      m.ranges = r.seq<float>();
-      m.intensities = r.seq<float>();
-      scans.push_back(std::move(m));
-    } else {
-      JointMsg m;
-      m.stamp_ns = cdr_stamp(r);
-      const uint32_t names = r.get<uint32_t>();
-      if (names > 1000) throw input_error(file, "a JointState with " + std::to_string(names) + " names");
-      for (uint32_t k = 0; k < names; ++k) m.names.push_back(r.str());
-      m.position = r.seq<double>();
-      joints.push_back(std::move(m));
-    }
+    const auto size = static_cast<size_t>(sqlite3_column_bytes(st.s, 1));
+    if (topic == scan_id)
+      scans.push_back(cdr_laser_scan(data, size, file));
+    else
+      joints.push_back(cdr_joint_state(data, size, file));
   }
   // A corrupt page ends the loop with an error, not with the last row: a shorter sweep must not pass as
   // whole.
@@ -547,27 +634,51 @@ ScanLog read_ros2_bag(const std::string& path, const RobotModel& robot, const Ba
   return to_scan_log(std::move(scans), std::move(joints), robot, "rosbag2", file);
 }
 
-void write_ros2_bag(const std::string& dir, const ScanLog& log, double epoch_s) {
+void write_ros2_bag(const std::string& dir, const ScanLog& log, double epoch_s, Ros2Storage storage) {
   namespace fs = std::filesystem;
   std::vector<ScanMsg> scans;
   std::vector<JointMsg> joints;
   from_scan_log(log, epoch_s, scans, joints);
   fs::create_directories(dir);
   const std::string name = fs::path(dir).filename().string();
+  int64_t first = std::numeric_limits<int64_t>::max(), last = 0;
+  for (const ScanMsg& m : scans) first = std::min(first, m.stamp_ns), last = std::max(last, m.stamp_ns);
+  for (const JointMsg& m : joints) first = std::min(first, m.stamp_ns), last = std::max(last, m.stamp_ns);
+
+  if (storage == Ros2Storage::kMcap) {
+    const std::string file = name + "_0.mcap";
+    mcap::File bag;
+    bag.profile = "ros2";
+    bag.channels[1] = {1, "/scan", "cdr", kLaserScanType, "ros2msg", ""};
+    bag.channels[2] = {2, "/joint_states", "cdr", kJointStateType, "ros2msg", ""};
+    // In time order, as a recorder writes them.
+    for (const ScanMsg& m : scans)
+      bag.messages.push_back({1, static_cast<uint64_t>(m.stamp_ns), cdr_of(m, log.lidar_frame)});
+    for (const JointMsg& m : joints)
+      bag.messages.push_back({2, static_cast<uint64_t>(m.stamp_ns), cdr_of(m)});
+    std::stable_sort(
+        bag.messages.begin(), bag.messages.end(),
+        [](const mcap::Message& a, const mcap::Message& b) { return a.log_time_ns < b.log_time_ns; });
+    mcap::write((fs::path(dir) / file).string(), bag);
+    write_ros2_metadata(dir, "mcap", file, scans.size(), joints.size(), first, last);
+    return;
+  }
+
   const std::string db3 = name + "_0.db3";
   fs::remove(fs::path(dir) / db3);
   Db db;
   if (sqlite3_open((fs::path(dir) / db3).string().c_str(), &db.db) != SQLITE_OK)
     throw std::runtime_error(dir + ": cannot create " + db3);
   exec(db.db,
-       "CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT NOT NULL, type TEXT NOT NULL, "
-       "serialization_format TEXT NOT NULL, offered_qos_profiles TEXT NOT NULL);"
-       "CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER NOT NULL, timestamp INTEGER NOT NULL, "
-       "data BLOB NOT NULL);"
-       "CREATE INDEX timestamp_idx ON messages (timestamp ASC);"
-       "INSERT INTO topics VALUES (1, '/scan', 'sensor_msgs/msg/LaserScan', 'cdr', '');"
-       "INSERT INTO topics VALUES (2, '/joint_states', 'sensor_msgs/msg/JointState', 'cdr', '');"
-       "BEGIN;");
+       std::string(
+           "CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT NOT NULL, type TEXT NOT NULL, "
+           "serialization_format TEXT NOT NULL, offered_qos_profiles TEXT NOT NULL);"
+           "CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER NOT NULL, timestamp INTEGER "
+           "NOT NULL, data BLOB NOT NULL);"
+           "CREATE INDEX timestamp_idx ON messages (timestamp ASC);"
+           "INSERT INTO topics VALUES (1, '/scan', '") +
+           kLaserScanType + "', 'cdr', '');INSERT INTO topics VALUES (2, '/joint_states', '" +
+           kJointStateType + "', 'cdr', '');BEGIN;");
   Stmt st;
   sqlite3_prepare_v2(db.db, "INSERT INTO messages (topic_id, timestamp, data) VALUES (?, ?, ?)", -1, &st.s,
                      nullptr);
@@ -578,51 +689,10 @@ void write_ros2_bag(const std::string& dir, const ScanLog& log, double epoch_s) 
     if (sqlite3_step(st.s) != SQLITE_DONE) throw std::runtime_error(dir + ": cannot write a message");
     sqlite3_reset(st.s);
   };
-  int64_t first = std::numeric_limits<int64_t>::max(), last = 0;
-  for (const ScanMsg& m : scans) {
-    CdrWriter w;
-    cdr_header(w, m.stamp_ns, log.lidar_frame);
-    w.put<float>(m.angle_min);
-    w.put<float>(m.angle_min + m.angle_increment * static_cast<float>(m.ranges.size() - 1));
-    w.put<float>(m.angle_increment);
-    w.put<float>(m.time_increment);
-    w.put<float>(m.time_increment * static_cast<float>(m.ranges.size()));
-    w.put<float>(m.range_min);
-    w.put<float>(m.range_max);
-    w.seq(m.ranges);
-    w.seq(m.intensities);
-    insert(1, m.stamp_ns, w.bytes());
-    first = std::min(first, m.stamp_ns), last = std::max(last, m.stamp_ns);
-  }
-  for (const JointMsg& m : joints) {
-    CdrWriter w;
-    cdr_header(w, m.stamp_ns, "");
-    w.put<uint32_t>(static_cast<uint32_t>(m.names.size()));
-    for (const std::string& n : m.names) w.str(n);
-    w.seq(m.position);
-    w.seq(std::vector<double>());  // velocity
-    w.seq(std::vector<double>());  // effort
-    insert(2, m.stamp_ns, w.bytes());
-    first = std::min(first, m.stamp_ns), last = std::max(last, m.stamp_ns);
-  }
+  for (const ScanMsg& m : scans) insert(1, m.stamp_ns, cdr_of(m, log.lidar_frame));
+  for (const JointMsg& m : joints) insert(2, m.stamp_ns, cdr_of(m));
   exec(db.db, "COMMIT;");
-  const size_t count = scans.size() + joints.size();
-  std::ofstream meta(fs::path(dir) / "metadata.yaml");
-  meta << "rosbag2_bagfile_information:\n  version: 5\n  storage_identifier: sqlite3\n  duration:\n    "
-          "nanoseconds: "
-       << last - first << "\n  starting_time:\n    nanoseconds_since_epoch: " << first
-       << "\n  message_count: " << count << "\n  topics_with_message_count:\n"
-       << "    - topic_metadata:\n        name: /scan\n        type: sensor_msgs/msg/LaserScan\n"
-       << "        serialization_format: cdr\n        offered_qos_profiles: \"\"\n      message_count: "
-       << scans.size() << "\n"
-       << "    - topic_metadata:\n        name: /joint_states\n        type: sensor_msgs/msg/JointState\n"
-       << "        serialization_format: cdr\n        offered_qos_profiles: \"\"\n      message_count: "
-       << joints.size()
-       << "\n  compression_format: \"\"\n  compression_mode: \"\"\n  relative_file_paths:\n    - " << db3
-       << "\n  files:\n    - path: " << db3
-       << "\n      starting_time:\n        nanoseconds_since_epoch: " << first
-       << "\n      duration:\n        nanoseconds: " << last - first << "\n      message_count: " << count
-       << "\n";
+  write_ros2_metadata(dir, "sqlite3", db3, scans.size(), joints.size(), first, last);
 }
 
 }  // namespace weldtwin

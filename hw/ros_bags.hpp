@@ -1,7 +1,7 @@
-// Recorded sweeps from ROS: a ROS 1 bag (Debian's librosbag) or a ROS 2 bag (its sqlite3 storage, CDR
-// messages) holding sensor_msgs/LaserScan (one message per LiDAR turn, as the RPLIDAR drivers publish) and
-// sensor_msgs/JointState, turned into a ScanLog — and ScanLogs written as such bags (to record a twin sweep
-// the way a real cell would, and for the tests).
+// Recorded sweeps from ROS: a ROS 1 bag (Debian's librosbag) or a ROS 2 bag (its sqlite3 or MCAP storage,
+// CDR messages) holding sensor_msgs/LaserScan (one message per LiDAR turn, as the RPLIDAR drivers publish)
+// and sensor_msgs/JointState, turned into a ScanLog — and ScanLogs written as such bags (to record a twin
+// sweep the way a real cell would, and for the tests).
 //
 // Time alignment: both topics carry header stamps on one clock; the log's zero is the earliest of them, each
 // LiDAR sample's time is its scan's stamp plus its index times time_increment, and scan assembly interpolates
@@ -25,14 +25,18 @@ struct BagTopics {
 /// file for an unreadable bag, a missing topic, a joint the robot has not, or messages out of order.
 ScanLog read_ros1_bag(const std::string& path, const RobotModel& robot, const BagTopics& topics = {});
 
-/// Reads a ROS 2 bag: its directory (with one *.db3 file) or the .db3 file itself.
+/// Reads a ROS 2 bag: its directory (with one .db3 or .mcap storage file) or the storage file itself. Both of
+/// rosbag2's storages: sqlite3, and MCAP (its default since Iron; uncompressed, lz4 or zstd chunks).
 ScanLog read_ros2_bag(const std::string& path, const RobotModel& robot, const BagTopics& topics = {});
 
 /// Writes `log` as a ROS 1 bag (/scan, /joint_states), stamps from `epoch_s` on. Every turn must have evenly
 /// spaced angles (a LaserScan holds a start and an increment). Throws std::runtime_error when it cannot.
 void write_ros1_bag(const std::string& path, const ScanLog& log, double epoch_s = 1.7e9);
 
-/// Writes `log` as a ROS 2 bag directory `dir` (metadata.yaml and `<name>_0.db3`).
-void write_ros2_bag(const std::string& dir, const ScanLog& log, double epoch_s = 1.7e9);
+enum class Ros2Storage { kSqlite3, kMcap };
+
+/// Writes `log` as a ROS 2 bag directory `dir` (metadata.yaml and `<name>_0.db3` or `<name>_0.mcap`).
+void write_ros2_bag(const std::string& dir, const ScanLog& log, double epoch_s = 1.7e9,
+                    Ros2Storage storage = Ros2Storage::kSqlite3);
 
 }  // namespace weldtwin

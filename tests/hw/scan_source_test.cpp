@@ -10,8 +10,11 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <map>
 
 #include "core/error.hpp"
+#include "hw/mcap.hpp"
 #include "hw/ros_bags.hpp"
 #include "perception/localizer.hpp"
 #include "perception/mesh_io.hpp"
@@ -73,10 +76,12 @@ TEST(ScanSource, EveryLogFormatLocalizesToTheLiveSimPose) {
   fs::remove_all(d / "sweep_ros2");
   write_ros2_bag((d / "sweep_ros2").string(), r.live);
   ASSERT_TRUE(fs::exists(d / "sweep_ros2" / "metadata.yaml"));
-  const std::pair<std::string, std::string> logs[] = {{"sweep.scanlog", "sim"},
-                                                      {"sweep.bag", "rosbag1"},
-                                                      {"sweep_ros2", "rosbag2"},
-                                                      {"sweep_ros2/sweep_ros2_0.db3", "rosbag2"}};
+  fs::remove_all(d / "sweep_mcap");
+  write_ros2_bag((d / "sweep_mcap").string(), r.live, 1.7e9, Ros2Storage::kMcap);
+  const std::pair<std::string, std::string> logs[] = {
+      {"sweep.scanlog", "sim"},  {"sweep.bag", "rosbag1"},
+      {"sweep_ros2", "rosbag2"}, {"sweep_ros2/sweep_ros2_0.db3", "rosbag2"},
+      {"sweep_mcap", "rosbag2"}, {"sweep_mcap/sweep_mcap_0.mcap", "rosbag2"}};
   for (const auto& [name, kind] : logs) {
     SCOPED_TRACE(name);
     const auto source = make_scan_source("log:" + (d / name).string(), r.cell.robot, SimScanInputs());
@@ -97,6 +102,74 @@ TEST(ScanSource, EveryLogFormatLocalizesToTheLiveSimPose) {
     EXPECT_LT((pose.translation() - r.live_pose.translation()).norm(), 1e-6);
     EXPECT_LT(Eigen::AngleAxisd(pose.linear().transpose() * r.live_pose.linear()).angle(), 1e-6);
   }
+}
+
+TEST(ScanSource, AnMcapBagGivesTheSqliteBagsCloudBitForBit) {
+  const Recorded& r = recorded();
+  const fs::path d = temp_dir();
+  fs::remove_all(d / "bit_sqlite");
+  fs::remove_all(d / "bit_mcap");
+  write_ros2_bag((d / "bit_sqlite").string(), r.live);
+  write_ros2_bag((d / "bit_mcap").string(), r.live, 1.7e9, Ros2Storage::kMcap);
+  const AssembledCloud a =
+      assemble_scan(read_ros2_bag((d / "bit_sqlite").string(), r.cell.robot), r.cell.robot);
+  const AssembledCloud b =
+      assemble_scan(read_ros2_bag((d / "bit_mcap").string(), r.cell.robot), r.cell.robot);
+  ASSERT_EQ(a.points_base.size(), b.points_base.size());
+  ASSERT_GT(a.points_base.size(), 10000u);
+  size_t differ = 0;
+  for (size_t i = 0; i < a.points_base.size(); ++i) differ += a.points_base[i] != b.points_base[i];
+  EXPECT_EQ(differ, 0u);
+}
+
+TEST(ScanSource, RosbagsOwnMcapTestBagIsReadAndRefusedForWhatItLacks) {
+  // rosbag2's own MCAP test bag (tests/data/README.md): zstd chunks, a schema per type.
+  const std::string path = test::repo("tests/data/rosbag2_talker_mcap/talker.mcap");
+  const mcap::File f = mcap::read(path);
+  EXPECT_EQ(f.profile, "ros2");
+  std::map<std::string, std::pair<std::string, int>> topics;
+  for (const auto& [id, ch] : f.channels) topics[ch.topic] = {ch.schema_name, 0};
+  for (const mcap::Message& m : f.messages) ++topics[f.channels.at(m.channel).topic].second;
+  EXPECT_EQ(topics["/topic"], std::make_pair(std::string("std_msgs/msg/String"), 10));
+  EXPECT_EQ(topics["/rosout"], std::make_pair(std::string("rcl_interfaces/msg/Log"), 10));
+  try {
+    read_ros2_bag(test::repo("tests/data/rosbag2_talker_mcap"), recorded().cell.robot);
+    ADD_FAILURE() << "a bag without laser scans was read";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no sensor_msgs/LaserScan messages"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ScanSource, BrokenMcapFilesAreRefusedWithTheReason) {
+  const fs::path d = temp_dir();
+  const std::string good = test::repo("tests/data/rosbag2_talker_mcap/talker.mcap");
+  std::ifstream in(good, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto refusal = [&](const std::string& content) {
+    const std::string p = (d / "broken.mcap").string();
+    std::ofstream(p, std::ios::binary | std::ios::trunc) << content;
+    try {
+      mcap::read(p);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("read");
+  };
+  // Cut short, as a recorder that was killed leaves it.
+  EXPECT_NE(refusal(bytes.substr(0, bytes.size() / 2)).find("cut short"), std::string::npos);
+  // A byte of the zstd chunk changed: it no longer decompresses, or its CRC says so.
+  std::string flipped = bytes;
+  flipped[200] = static_cast<char>(flipped[200] ^ 0x5A);
+  const std::string e = refusal(flipped);
+  EXPECT_TRUE(e.find("does not decompress") != std::string::npos || e.find("CRC") != std::string::npos) << e;
+  // The first chunk claims 2^40 bytes uncompressed: refused before anything is allocated.
+  std::string bomb = bytes;
+  const size_t chunk = 8 + 9 + 28;  // magic, the header record (opcode, length, its 28 bytes)
+  ASSERT_EQ(bomb[chunk], 0x06);
+  const uint64_t huge = 1ull << 40;
+  std::memcpy(&bomb[chunk + 9 + 16], &huge, 8);
+  EXPECT_NE(refusal(bomb).find("at most 1 GiB"), std::string::npos) << refusal(bomb);
+  EXPECT_NE(refusal("not mcap at all").find("not an MCAP file"), std::string::npos);
 }
 
 TEST(ScanSource, JointStatesAreReorderedByNameAndTheirTimesKept) {
