@@ -9,7 +9,7 @@ namespace weldtwin {
 
 struct PoseEstimate;
 
-/// The pose JSON of DESIGN.md with every figure of the estimate.
+/// The pose JSON of docs/design.md with every figure of the estimate.
 nlohmann::json pose_to_json(const PoseEstimate& pose);
 
 struct LocalizeCommand {

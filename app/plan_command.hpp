@@ -1,4 +1,4 @@
-// `weldtwin plan`: the weld program for a part at a pose (plan JSON and CSV, DESIGN.md).
+// `weldtwin plan`: the weld program for a part at a pose (plan JSON and CSV, docs/design.md).
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -26,7 +26,7 @@ inline std::string cell_or_default(const std::string& cell) {
   return cell.empty() ? std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml" : cell;
 }
 
-/// The plan JSON of DESIGN.md.
+/// The plan JSON of docs/design.md.
 nlohmann::json plan_to_json(const WeldPlan& plan, const PartSpec& part, const RobotModel& robot,
                             const PlanSetting& setting);
 

@@ -11,7 +11,7 @@
 namespace weldtwin {
 
 /// One weld seam in the part frame. A line runs start -> end; an arc turns about `axis` through `center`
-/// from `start` by `sweep_rad` (counter-clockwise about the axis). DESIGN.md fixes the torch angle
+/// from `start` by `sweep_rad` (counter-clockwise about the axis). docs/design.md fixes the torch angle
 /// convention.
 struct Seam {
   enum class Kind { kLine, kArc };

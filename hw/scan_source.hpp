@@ -1,4 +1,4 @@
-// Where a sweep comes from, behind one interface that always yields the ScanLog of DESIGN.md:
+// Where a sweep comes from, behind one interface that always yields the ScanLog of docs/design.md:
 //   sim        the twin's simulated sweep of the cell;
 //   log:FILE   a recorded sweep: our ScanLog (.scanlog), a ROS 1 bag (.bag) or a ROS 2 bag (its directory or
 //              .db3 file), told apart by their content;

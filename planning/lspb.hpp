@@ -1,4 +1,4 @@
-// Linear segment with parabolic blends (DESIGN.md): a distance L at speed v with blends of tb = f T at both
+// Linear segment with parabolic blends (docs/design.md): a distance L at speed v with blends of tb = f T at both
 // ends; T = L / (v (1 - f)), blend acceleration v / tb. Also the fastest LSPB for velocity and acceleration
 // limits, used for joint-space moves.
 #pragma once

@@ -1,4 +1,4 @@
-// The torch orientation of DESIGN.md, from a seam's travel direction d, its normals n and m, and the work,
+// The torch orientation of docs/design.md, from a seam's travel direction d, its normals n and m, and the work,
 // travel and roll angles:
 //   a0 = -(cos w n + sin w m)   (n, m made orthogonal to d; w = 45 deg bisects a fillet)
 //   a  = cos(tau) a0 + sin(tau) d   (travel angle tau, push positive)

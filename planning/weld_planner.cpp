@@ -393,7 +393,7 @@ class Builder {
     return true;
   }
 
-  // The seam itself, arc on: LSPB along its arc length at the weld speed (DESIGN.md's timing law).
+  // The seam itself, arc on: LSPB along its arc length at the weld speed (docs/design.md's timing law).
   bool weld(const SeamGeometry& g, double s0, double s1, double roll, int seam_index) {
     const Lspb law = Lspb::with_blend_fraction(s1 - s0, g.seam->speed_m_s, set_.blend_fraction);
     const int n = static_cast<int>(std::ceil(law.duration / dt_ - 1e-9));

@@ -1,5 +1,5 @@
 // The RPLIDAR A2 (A2M8) model: timing, range limits and every error effect, each switchable, with the
-// defaults of DESIGN.md. The sweep simulator applies it to exact ray hits.
+// defaults of docs/design.md. The sweep simulator applies it to exact ray hits.
 #pragma once
 
 #include <cstdint>
