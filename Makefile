@@ -88,8 +88,9 @@ fuzz: fuzz-build
 	@for h in $(FUZZ_HARNESSES); do \
 	  mkdir -p $(BUILD)-fuzz/corpus/$$h $(BUILD)-fuzz/findings; \
 	  echo "fuzz: $$h for $(FUZZ_SECONDS) s"; \
-	  case $$h in ros_bag) len=262144;; aubo_messages) len=4096;; part_spec|cell_spec|pose_plan) len=8192;; \
+	  case $$h in ros_bag) len=16384;; aubo_messages) len=4096;; part_spec|cell_spec|pose_plan) len=8192;; \
 	    *) len=65536;; esac; \
+	  LSAN_OPTIONS=suppressions=$(CURDIR)/tests/sanitize/lsan.supp \
 	  $(BUILD)-fuzz/fuzz_$$h -max_total_time=$(FUZZ_SECONDS) -rss_limit_mb=2048 -max_len=$$len -timeout=10 \
 	    -artifact_prefix=$(BUILD)-fuzz/findings/$$h- -print_final_stats=1 \
 	    $(BUILD)-fuzz/corpus/$$h $(BUILD)-fuzz/seeds/$$h 2>$(BUILD)-fuzz/$$h.log || \

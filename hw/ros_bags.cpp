@@ -1,7 +1,9 @@
 #include "hw/ros_bags.hpp"
 
+#include <bzlib.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <roslz4/lz4s.h>
 #include <sensor_msgs/JointState.h>
 #include <sensor_msgs/LaserScan.h>
 #include <sqlite3.h>
@@ -13,6 +15,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <set>
 
 #include "core/error.hpp"
 #include "core/files.hpp"
@@ -454,52 +457,156 @@ class Ros1Lengths {
 // data), each within the file and each with an op, stepped over as rosbag steps over them (an index record by
 // its entry count, 12 bytes an entry, not by its data length): rosbag trusts the count, and a count one too
 // large had crashed it; here the record after it no longer lines up.
+/// One record of a ROS 1 bag: its header fields, and where its data lies.
+struct Ros1Record {
+  size_t start = 0, data = 0, data_len = 0;
+  std::map<std::string, std::string> fields;
+  int op() const {
+    const auto it = fields.find("op");
+    return it != fields.end() && it->second.size() == 1 ? static_cast<unsigned char>(it->second[0]) : -1;
+  }
+  /// A little-endian integer field of exactly sizeof(T) bytes; `what` names the record for the error.
+  template <typename T>
+  T number(const char* key, const std::string& path, const char* what) const {
+    const auto it = fields.find(key);
+    if (it == fields.end() || it->second.size() != sizeof(T))
+      throw input_error(path, std::string("a bag ") + what + " record without its '" + key + "'");
+    T v;
+    std::memcpy(&v, it->second.data(), sizeof(T));
+    return v;
+  }
+};
+
+/// The record at `at` of `bytes` (a file, or a chunk's uncompressed records); lengths checked against it.
+Ros1Record ros1_record(const std::string& bytes, size_t at, const std::string& path) {
+  auto u32 = [&](size_t i) {
+    uint32_t v = 0;
+    std::memcpy(&v, bytes.data() + i, 4);
+    return v;
+  };
+  Ros1Record r;
+  r.start = at;
+  if (bytes.size() - at < 4) throw input_error(path, "a bag record cut short");
+  const size_t header_len = u32(at);
+  if (bytes.size() - at - 4 < static_cast<uint64_t>(header_len) + 4)
+    throw input_error(path, "a bag record header past the end");
+  const size_t header = at + 4;
+  r.data_len = u32(header + header_len);
+  r.data = header + header_len + 4;
+  if (bytes.size() - r.data < r.data_len) throw input_error(path, "a bag record's data past the end");
+  for (size_t f = header; f < header + header_len;) {
+    if (header + header_len - f < 4) throw input_error(path, "a bag record header field cut short");
+    const size_t len = u32(f);
+    if (header + header_len - f - 4 < len) throw input_error(path, "a bag record header field past its end");
+    const std::string field = bytes.substr(f + 4, len);
+    const size_t eq = field.find('=');
+    if (eq != std::string::npos) r.fields[field.substr(0, eq)] = field.substr(eq + 1);
+    f += 4 + len;
+  }
+  if (r.op() < 0) throw input_error(path, "a bag record without an op: the records do not line up");
+  return r;
+}
+
+/// A chunk's records, uncompressed (none, bz2 or lz4 as rosbag writes them), its size checked first.
+std::string ros1_chunk_records(const std::string& bytes, const Ros1Record& chunk, const std::string& path) {
+  constexpr uint64_t kMaxChunk = 1u << 30, kMaxRatio = 1000;  // rosbag writes 768 kB chunks
+  const uint32_t size = chunk.number<uint32_t>("size", path, "chunk");
+  const auto c = chunk.fields.find("compression");
+  const std::string compression = c == chunk.fields.end() ? "" : c->second;
+  const char* in = bytes.data() + chunk.data;
+  if (compression == "none") {
+    if (size != chunk.data_len) throw input_error(path, "an uncompressed bag chunk whose sizes differ");
+    return std::string(in, chunk.data_len);
+  }
+  if (size > kMaxChunk || size > kMaxRatio * static_cast<uint64_t>(chunk.data_len) + 1024)
+    throw input_error(
+        path, "a bag chunk claims " + std::to_string(size) + " bytes from " + std::to_string(chunk.data_len));
+  std::string out(size, '\0');
+  unsigned int got = size;
+  std::string packed(in, chunk.data_len);  // the decompressors take non-const input
+  if (compression == "bz2") {
+    if (BZ2_bzBuffToBuffDecompress(out.data(), &got, packed.data(), static_cast<unsigned>(packed.size()), 0,
+                                   0) != BZ_OK ||
+        got != size)
+      throw input_error(path, "a bz2 bag chunk does not decompress to its size");
+  } else if (compression == "lz4") {
+    if (roslz4_buffToBuffDecompress(packed.data(), static_cast<unsigned>(packed.size()), out.data(), &got) !=
+            ROSLZ4_OK ||
+        got != size)
+      throw input_error(path, "an lz4 bag chunk does not decompress to its size");
+  } else {
+    throw input_error(path, "a bag chunk compressed as '" + compression + "' (rosbag writes none, bz2, lz4)");
+  }
+  return out;
+}
+
+// rosbag follows the offsets a bag gives (the index position, chunk positions, message offsets in chunks) and
+// allocates whatever length it finds there: every offset must land on a record, every length fit, before
+// rosbag opens the bag.
 void check_ros1_records(const std::string& path) {
   constexpr uint64_t kIndexEntryBytes = 12;
   std::ifstream in(path, std::ios::binary);
   const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  static const std::string kMagic = "#ROSBAG V2.0\n";
-  if (bytes.compare(0, kMagic.size(), kMagic) != 0) return;  // rosbag says what it is not
-  auto u32 = [&](size_t at) {
-    uint32_t v = 0;
-    std::memcpy(&v, bytes.data() + at, 4);
-    return v;
-  };
-  for (size_t at = kMagic.size(); at < bytes.size();) {
-    if (bytes.size() - at < 4) throw input_error(path, "a bag record cut short");
-    const size_t header_len = u32(at);
-    if (bytes.size() - at - 4 < header_len + 4) throw input_error(path, "a bag record header past the end");
-    const size_t header = at + 4, data_len = u32(header + header_len);
-    const size_t data = header + header_len + 4;
-    if (bytes.size() - data < data_len) throw input_error(path, "a bag record's data past the end");
-    std::map<std::string, std::string> fields;
-    for (size_t f = header; f < header + header_len;) {
-      if (header + header_len - f < 4) throw input_error(path, "a bag record header field cut short");
-      const size_t len = u32(f);
-      if (header + header_len - f - 4 < len)
-        throw input_error(path, "a bag record header field past its end");
-      const std::string field = bytes.substr(f + 4, len);
-      const size_t eq = field.find('=');
-      if (eq != std::string::npos) fields[field.substr(0, eq)] = field.substr(eq + 1);
-      f += 4 + len;
-    }
-    const auto op = fields.find("op");
-    if (op != fields.end() && op->second.size() == 1 && op->second[0] == 0x04) {  // index data
-      const auto count = fields.find("count");
-      uint32_t n = 0;
-      if (count == fields.end() || count->second.size() != 4)
-        throw input_error(path, "an index record without a count");
-      std::memcpy(&n, count->second.data(), 4);
-      // rosbag reads count entries whatever the record's data length says (a real bag's is wrong): the next
-      // record starts after them, and must be one.
-      if (static_cast<uint64_t>(n) * kIndexEntryBytes > bytes.size() - data)
-        throw input_error(path, "an index record claims " + std::to_string(n) + " entries past the end");
-      at = data + n * kIndexEntryBytes;
-      continue;
-    }
-    if (op == fields.end()) throw input_error(path, "a bag record without an op: the records do not line up");
-    at = data + data_len;
+  // rosbag takes the version from the first line, whatever else is on it: we take exactly "#ROSBAG V2.0".
+  static const std::string kMagic = "#ROSBAG V2.0\n", kPrefix = "#ROSBAG V";
+  if (bytes.compare(0, kPrefix.size(), kPrefix) != 0) return;  // rosbag says what it is not
+  if (bytes.compare(0, kMagic.size(), kMagic) != 0) {
+    const std::string line =
+        bytes.substr(kPrefix.size(), std::min<size_t>(bytes.find('\n'), 16) - kPrefix.size());
+    const bool printable =
+        std::all_of(line.begin(), line.end(), [](char c) { return (c >= '0' && c <= '9') || c == '.'; });
+    throw input_error(path, "a ROS 1 bag of version " + (printable && !line.empty() ? line : "?") +
+                                " (weldtwin reads version 2.0 bags)");
   }
+  enum : int { kBagHeader = 0x03, kIndex = 0x04, kChunk = 0x05, kChunkInfo = 0x06 };
+  std::set<uint64_t> starts, chunks;
+  std::vector<uint64_t> index_pos, chunk_pos;
+  std::set<uint32_t> chunk_starts;  // the records in the latest chunk, by offset in its uncompressed data
+  for (size_t at = kMagic.size(); at < bytes.size();) {
+    const Ros1Record r = ros1_record(bytes, at, path);
+    starts.insert(at);
+    switch (r.op()) {
+      case kBagHeader:
+        index_pos.push_back(r.number<uint64_t>("index_pos", path, "header"));
+        break;
+      case kChunkInfo:
+        chunk_pos.push_back(r.number<uint64_t>("chunk_pos", path, "chunk info"));
+        break;
+      case kChunk: {
+        chunks.insert(at);
+        const std::string records = ros1_chunk_records(bytes, r, path);
+        chunk_starts.clear();
+        for (size_t k = 0; k < records.size();) {
+          const Ros1Record inner = ros1_record(records, k, path);
+          chunk_starts.insert(static_cast<uint32_t>(k));
+          k = inner.data + inner.data_len;
+        }
+        break;
+      }
+      case kIndex: {
+        const uint32_t n = r.number<uint32_t>("count", path, "index");
+        // rosbag reads count entries whatever the record's data length says (a real bag's is wrong): the next
+        // record starts after them, and must be one.
+        if (static_cast<uint64_t>(n) * kIndexEntryBytes > bytes.size() - r.data)
+          throw input_error(path, "an index record claims " + std::to_string(n) + " entries past the end");
+        for (uint32_t k = 0; k < n; ++k) {
+          uint32_t offset = 0;
+          std::memcpy(&offset, bytes.data() + r.data + k * kIndexEntryBytes + 8, 4);
+          if (!chunk_starts.count(offset))
+            throw input_error(path, "an index entry points between the records of its chunk");
+        }
+        at = r.data + n * kIndexEntryBytes;
+        continue;
+      }
+      default:
+        break;
+    }
+    at = r.data + r.data_len;
+  }
+  for (const uint64_t p : index_pos)
+    if (p != 0 && !starts.count(p)) throw input_error(path, "the bag's index position is not on a record");
+  for (const uint64_t p : chunk_pos)
+    if (!chunks.count(p)) throw input_error(path, "a chunk position of the bag's index is not on a chunk");
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <map>
 
@@ -214,6 +215,29 @@ TEST(ScanSource, BadInputIsRefusedNamingTheFile) {
   no_joints.joints.clear();
   write_ros1_bag((d / "scans_only.bag").string(), no_joints);
   refused("log:" + (d / "scans_only.bag").string(), "no sensor_msgs/JointState");
+  // Bags whose offsets send rosbag into the middle of a record (it allocated the 3.8 GB length it read there;
+  // fuzz_ros_bag's finding): the version line run on past its newline, the index position moved by a byte.
+  write_ros1_bag((d / "whole.bag").string(), r.live);
+  std::ifstream whole_in(d / "whole.bag", std::ios::binary);
+  const std::string whole((std::istreambuf_iterator<char>(whole_in)), std::istreambuf_iterator<char>());
+  auto mutant = [&](const std::string& name, const std::function<void(std::string&)>& change) {
+    std::string b = whole;
+    change(b);
+    std::ofstream(d / name, std::ios::binary | std::ios::trunc) << b;
+    return "log:" + (d / name).string();
+  };
+  refused(mutant("no_newline.bag", [](std::string& b) { b[12] = '\0'; }), "a ROS 1 bag of version ?");
+  refused(mutant("v12.bag", [](std::string& b) { b.replace(9, 3, "1.2"); }), "a ROS 1 bag of version 1.2");
+  refused(mutant("index_pos.bag",
+                 [](std::string& b) {
+                   const size_t at = b.find("index_pos=");
+                   ASSERT_NE(at, std::string::npos);
+                   uint64_t pos = 0;
+                   std::memcpy(&pos, &b[at + 10], 8);
+                   ++pos;
+                   std::memcpy(&b[at + 10], &pos, 8);
+                 }),
+          "the bag's index position is not on a record");
   // A ROS 2 bag whose messages are cut short.
   fs::remove_all(d / "cut");
   write_ros2_bag((d / "cut").string(), r.live);
