@@ -477,6 +477,23 @@ struct Ros1Record {
   }
 };
 
+/// The `name=value` fields of a header block (each with its u32 length) in bytes [begin, end).
+std::map<std::string, std::string> ros1_fields(const std::string& bytes, size_t begin, size_t end,
+                                               const std::string& path) {
+  std::map<std::string, std::string> fields;
+  for (size_t f = begin; f < end;) {
+    if (end - f < 4) throw input_error(path, "a bag record header field cut short");
+    uint32_t len = 0;
+    std::memcpy(&len, bytes.data() + f, 4);
+    if (end - f - 4 < len) throw input_error(path, "a bag record header field past its end");
+    const std::string field = bytes.substr(f + 4, len);
+    const size_t eq = field.find('=');
+    if (eq != std::string::npos) fields[field.substr(0, eq)] = field.substr(eq + 1);
+    f += 4 + len;
+  }
+  return fields;
+}
+
 /// The record at `at` of `bytes` (a file, or a chunk's uncompressed records); lengths checked against it.
 Ros1Record ros1_record(const std::string& bytes, size_t at, const std::string& path) {
   auto u32 = [&](size_t i) {
@@ -494,15 +511,7 @@ Ros1Record ros1_record(const std::string& bytes, size_t at, const std::string& p
   r.data_len = u32(header + header_len);
   r.data = header + header_len + 4;
   if (bytes.size() - r.data < r.data_len) throw input_error(path, "a bag record's data past the end");
-  for (size_t f = header; f < header + header_len;) {
-    if (header + header_len - f < 4) throw input_error(path, "a bag record header field cut short");
-    const size_t len = u32(f);
-    if (header + header_len - f - 4 < len) throw input_error(path, "a bag record header field past its end");
-    const std::string field = bytes.substr(f + 4, len);
-    const size_t eq = field.find('=');
-    if (eq != std::string::npos) r.fields[field.substr(0, eq)] = field.substr(eq + 1);
-    f += 4 + len;
-  }
+  r.fields = ros1_fields(bytes, header, header + header_len, path);
   if (r.op() < 0) throw input_error(path, "a bag record without an op: the records do not line up");
   return r;
 }
@@ -547,18 +556,32 @@ void check_ros1_records(const std::string& path) {
   constexpr uint64_t kIndexEntryBytes = 12;
   std::ifstream in(path, std::ios::binary);
   const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  // rosbag takes the version from the first line, whatever else is on it: we take exactly "#ROSBAG V2.0".
-  static const std::string kMagic = "#ROSBAG V2.0\n", kPrefix = "#ROSBAG V";
-  if (bytes.compare(0, kPrefix.size(), kPrefix) != 0) return;  // rosbag says what it is not
+  // rosbag takes the version from the first line, whatever else is on it, and its reader of the old 1.2
+  // format overruns its buffers on a malformed file: only exactly "#ROSBAG V2.0" goes on to rosbag.
+  static const std::string kMagic = "#ROSBAG V2.0\n";
   if (bytes.compare(0, kMagic.size(), kMagic) != 0) {
-    const std::string line =
-        bytes.substr(kPrefix.size(), std::min<size_t>(bytes.find('\n'), 16) - kPrefix.size());
-    const bool printable =
-        std::all_of(line.begin(), line.end(), [](char c) { return (c >= '0' && c <= '9') || c == '.'; });
-    throw input_error(path, "a ROS 1 bag of version " + (printable && !line.empty() ? line : "?") +
-                                " (weldtwin reads version 2.0 bags)");
+    for (const std::string prefix : {"#ROSBAG V", "#ROSRECORD V"}) {
+      if (bytes.compare(0, prefix.size(), prefix) != 0) continue;
+      const std::string line =
+          bytes.substr(prefix.size(), std::min<size_t>(bytes.find('\n'), prefix.size() + 8) - prefix.size());
+      const bool printable =
+          std::all_of(line.begin(), line.end(), [](char c) { return (c >= '0' && c <= '9') || c == '.'; });
+      throw input_error(path, "a ROS 1 bag of version " + (printable && !line.empty() ? line : "?") +
+                                  " (weldtwin reads version 2.0 bags)");
+    }
+    throw input_error(path, "not a ROS 1 bag (no '#ROSBAG V2.0' line)");
   }
-  enum : int { kBagHeader = 0x03, kIndex = 0x04, kChunk = 0x05, kChunkInfo = 0x06 };
+  enum : int { kBagHeader = 0x03, kIndex = 0x04, kChunk = 0x05, kChunkInfo = 0x06, kConnection = 0x07 };
+  // A connection record: rosbag leaks it when a field it wants is missing (it throws past its new).
+  auto check_connection = [&](const std::string& holder, const Ros1Record& c) {
+    c.number<uint32_t>("conn", path, "connection");
+    if (!c.fields.count("topic")) throw input_error(path, "a bag connection record without its topic");
+    // Its data is a header of its own: the message type, its MD5 and definition.
+    const std::map<std::string, std::string> fields = ros1_fields(holder, c.data, c.data + c.data_len, path);
+    for (const char* key : {"type", "md5sum", "message_definition"})
+      if (!fields.count(key))
+        throw input_error(path, std::string("a bag connection record without its '") + key + "'");
+  };
   std::set<uint64_t> starts, chunks;
   std::vector<uint64_t> index_pos, chunk_pos;
   std::set<uint32_t> chunk_starts;  // the records in the latest chunk, by offset in its uncompressed data
@@ -572,12 +595,16 @@ void check_ros1_records(const std::string& path) {
       case kChunkInfo:
         chunk_pos.push_back(r.number<uint64_t>("chunk_pos", path, "chunk info"));
         break;
+      case kConnection:
+        check_connection(bytes, r);
+        break;
       case kChunk: {
         chunks.insert(at);
         const std::string records = ros1_chunk_records(bytes, r, path);
         chunk_starts.clear();
         for (size_t k = 0; k < records.size();) {
           const Ros1Record inner = ros1_record(records, k, path);
+          if (inner.op() == kConnection) check_connection(records, inner);
           chunk_starts.insert(static_cast<uint32_t>(k));
           k = inner.data + inner.data_len;
         }

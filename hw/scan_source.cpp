@@ -141,7 +141,9 @@ ScanLog read_any_scan_log(const std::string& path, const RobotModel& robot) {
   in.read(head, sizeof head);
   const std::string magic(head, static_cast<size_t>(in.gcount()));
   if (magic.rfind("WELDTWIN-SCANLOG", 0) == 0) return ScanLog::read(path);
-  if (magic.rfind("#ROSBAG V", 0) == 0) return read_ros1_bag(path, robot);  // any version: it says which
+  // Any version: the reader says which it is, if not 2.0.
+  if (magic.rfind("#ROSBAG V", 0) == 0 || magic.rfind("#ROSRECORD V", 0) == 0)
+    return read_ros1_bag(path, robot);
   if (magic.rfind("SQLite format 3", 0) == 0 || magic.rfind("\x89MCAP", 0) == 0)
     return read_ros2_bag(path, robot);
   throw input_error(path, "not a recorded sweep (a ScanLog, a ROS 1 bag or a ROS 2 bag: sqlite3 or MCAP)");

@@ -228,6 +228,8 @@ TEST(ScanSource, BadInputIsRefusedNamingTheFile) {
   };
   refused(mutant("no_newline.bag", [](std::string& b) { b[12] = '\0'; }), "a ROS 1 bag of version ?");
   refused(mutant("v12.bag", [](std::string& b) { b.replace(9, 3, "1.2"); }), "a ROS 1 bag of version 1.2");
+  std::ofstream(d / "old.bag") << "#ROSRECORD V1.2\n\x1e\0\0\0";
+  refused("log:" + (d / "old.bag").string(), "a ROS 1 bag of version 1.2");
   refused(mutant("index_pos.bag",
                  [](std::string& b) {
                    const size_t at = b.find("index_pos=");
