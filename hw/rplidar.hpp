@@ -42,6 +42,10 @@ std::vector<uint8_t> encode_node(const RplidarNode& n);
 std::vector<uint8_t> encode_capsule(double start_angle_deg, bool new_turn, const double (&distance_mm)[32],
                                     const double (&compensation_deg)[32]);
 
+/// The SCAN node in the 5 bytes at `b`, if they pass the protocol's checks (the start flag against its
+/// inverse, the check bit, an angle within a turn); false otherwise.
+bool decode_node(const uint8_t* b, RplidarNode& node);
+
 /// Bytes as they arrive, consumed from the front (kept compact).
 struct StreamBuffer {
   std::vector<uint8_t> bytes;
