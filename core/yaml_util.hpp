@@ -1,5 +1,6 @@
 // Reading YAML specs with errors that name the file and the field. Keys may carry their unit as a suffix
-// (docs/design.md): lengths as NAME_m or NAME_mm, angles as NAME_deg or NAME_rad, speeds as NAME_m_s or NAME_mm_s.
+// (docs/design.md): lengths as NAME_m or NAME_mm, angles as NAME_deg or NAME_rad, speeds as NAME_m_s or
+// NAME_mm_s.
 #pragma once
 
 #include <yaml-cpp/yaml.h>

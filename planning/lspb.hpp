@@ -1,6 +1,6 @@
-// Linear segment with parabolic blends (docs/design.md): a distance L at speed v with blends of tb = f T at both
-// ends; T = L / (v (1 - f)), blend acceleration v / tb. Also the fastest LSPB for velocity and acceleration
-// limits, used for joint-space moves.
+// Linear segment with parabolic blends (docs/design.md): a distance L at speed v with blends of tb = f T at
+// both ends; T = L / (v (1 - f)), blend acceleration v / tb. Also the fastest LSPB for velocity and
+// acceleration limits, used for joint-space moves.
 #pragma once
 
 namespace weldtwin {

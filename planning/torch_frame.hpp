@@ -1,5 +1,5 @@
-// The torch orientation of docs/design.md, from a seam's travel direction d, its normals n and m, and the work,
-// travel and roll angles:
+// The torch orientation of docs/design.md, from a seam's travel direction d, its normals n and m, and the
+// work, travel and roll angles:
 //   a0 = -(cos w n + sin w m)   (n, m made orthogonal to d; w = 45 deg bisects a fillet)
 //   a  = cos(tau) a0 + sin(tau) d   (travel angle tau, push positive)
 //   z_tcp = a; x_tcp = d made orthogonal to a, turned by the roll about a; y = z x x.
