@@ -29,7 +29,7 @@
 #include "app/plan_command.hpp"
 #include "core/cell_spec.hpp"
 #include "core/error.hpp"
-#include "perception/cloud_io.hpp"
+#include "core/cloud_io.hpp"
 #include "perception/localizer.hpp"
 #include "perception/mount_calibration.hpp"
 #include "perception/paper_localizer.hpp"

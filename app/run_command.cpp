@@ -17,7 +17,7 @@
 #include "hw/execution_record.hpp"
 #include "hw/robot_driver.hpp"
 #include "hw/scan_source.hpp"
-#include "perception/cloud_io.hpp"
+#include "core/cloud_io.hpp"
 #include "perception/mesh_io.hpp"
 #include "perception/scan_assembly.hpp"
 #include "sim/collision_check.hpp"

@@ -19,7 +19,7 @@
 
 #include "benchmarks/real_scan_check.hpp"
 #include "core/error.hpp"
-#include "perception/cloud_io.hpp"
+#include "core/cloud_io.hpp"
 #include "perception/localizer.hpp"
 #include "perception/paper_localizer.hpp"
 #include "perception/pose_error.hpp"

@@ -1,9 +1,13 @@
 #include "core/part_spec.hpp"
 
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 
 #include "core/error.hpp"
 #include "core/files.hpp"
+#include "core/mesh_file.hpp"
+#include "core/part_outline.hpp"
 #include "core/yaml_util.hpp"
 
 namespace weldtwin {
@@ -12,6 +16,13 @@ namespace {
 constexpr double kMinSpeed = 0.5e-3;         // slower than any weld travels [m/s]
 constexpr double kMaxSpeed = 0.2;            // faster than any arc weld travels [m/s]
 constexpr double kMaxTravelAngle = kPi / 4;  // [rad]
+constexpr double kBaseTolerance = 0.5e-3;    // the mesh's base at z = 0, its top at the height given [m]
+
+std::string mm(double m) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f mm", m * 1e3);
+  return buf;
+}
 
 }  // namespace
 
@@ -136,17 +147,35 @@ PartSpec PartSpec::parse(const std::string& yaml_path) {
   part.name = yaml::text(root, "name", yaml_path);
   part.mesh_path = yaml::resolve(yaml_path, yaml::text(root, "model", yaml_path));
   if (!is_file(part.mesh_path)) throw input_error(yaml_path, "mesh '" + part.mesh_path + "' does not exist");
-  part.height_m = yaml::length(root, "height", yaml_path);
+  const Mesh mesh = load_mesh(part.mesh_path);
+  const MeshHeights heights = mesh_heights(mesh);
+  if (std::abs(heights.bottom_m) > kBaseTolerance)
+    throw input_error(yaml_path, "the mesh's lowest point is at z = " + mm(heights.bottom_m) +
+                                     " in the part frame, whose z = 0 rests on the table: move the mesh's "
+                                     "origin (and the seams) to the part's base");
+  const auto given_height = yaml::maybe_length(root, "height", yaml_path);
+  if (given_height && std::abs(*given_height - heights.top_m) > kBaseTolerance)
+    throw input_error(yaml_path,
+                      "height " + mm(*given_height) + " but the mesh reaches " + mm(heights.top_m) +
+                          " above the table: correct it or leave it out (it is taken from the mesh)");
+  part.height_m = given_height.value_or(heights.top_m);
 
-  const YAML::Node fp = root["footprint_m"];
-  if (!fp || !fp.IsSequence() || fp.size() < 3)
-    throw input_error(yaml_path, "field 'footprint_m' must list at least 3 points [x, y]");
-  for (const auto& p : fp) {
-    if (!p.IsSequence() || p.size() != 2) throw input_error(yaml_path, "footprint_m points must be [x, y]");
-    part.footprint.emplace_back(p[0].as<double>(), p[1].as<double>());
+  if (const YAML::Node fp = root["footprint_m"]) {
+    if (!fp.IsSequence() || fp.size() < 3)
+      throw input_error(yaml_path,
+                        "field 'footprint_m' must list at least 3 points [x, y] (or be left out: "
+                        "it is taken from the mesh)");
+    for (const auto& p : fp) {
+      if (!p.IsSequence() || p.size() != 2) throw input_error(yaml_path, "footprint_m points must be [x, y]");
+      part.footprint.emplace_back(p[0].as<double>(), p[1].as<double>());
+      if (!part.footprint.back().allFinite()) throw input_error(yaml_path, "footprint_m point is not finite");
+    }
+  } else {
+    part.footprint = convex_outline(mesh);
+    if (part.footprint.size() < 3) throw input_error(yaml_path, "the mesh has no outline seen from above");
   }
 
-  if (const YAML::Node sites = root["clamp_sites"]) {
+  if (const YAML::Node sites = root["clamp_sites"]) {  // given, maybe empty: a part held without clamps
     for (const auto& s : sites) {
       ClampSite c;
       c.grip = yaml::vec3(s, "grip", yaml_path);
@@ -167,6 +196,7 @@ PartSpec PartSpec::parse(const std::string& yaml_path) {
     throw input_error(yaml_path, "field 'seams' lists " + std::to_string(seams.size()) + " seams; at most " +
                                      std::to_string(kMaxSeams) + " are welded in one clamping");
   for (size_t i = 0; i < seams.size(); ++i) part.seams.push_back(parse_seam(seams[i], i, yaml_path));
+  if (!root["clamp_sites"]) part.clamp_sites = outline_clamp_sites(mesh, part.footprint, part.seams);
   return part;
 }
 

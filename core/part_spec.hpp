@@ -41,6 +41,16 @@ struct ClampSite {
   Eigen::Vector2d outward{1.0, 0.0};  ///< horizontal unit direction from the part towards the clamp body
 };
 
+/// Clamp geometry, shared by the MJCF generator, the layout checks and the
+/// clamp sites drawn from a part's outline.
+struct ClampDims {
+  static constexpr double kBaseStart = 0.06;  ///< base block starts this far out from the pad [m]
+  static constexpr double kBaseEnd = 0.14;
+  static constexpr double kReach = 0.23;  ///< farthest point (handle tip) from the pad [m]
+  static constexpr double kHalfWidth = 0.03;
+  static constexpr double kPadRadius = 0.011;  ///< rubber pad on the part
+};
+
 struct PartSpec {
   std::string name;
   std::string source;     ///< the YAML file

@@ -1,4 +1,5 @@
-// Part meshes (STL binary/ascii, PLY, OBJ) through Assimp, and sampling their surface for registration.
+// Part meshes made ready for registration: their surface sampled, their faces turned outwards, the
+// directions a face can be seen from. Reading them is core/mesh_file.hpp.
 #pragma once
 
 #include <Eigen/Core>
@@ -6,17 +7,9 @@
 #include <vector>
 
 #include "core/geometry.hpp"
+#include "core/mesh_file.hpp"
 
 namespace weldtwin {
-
-struct Mesh {
-  std::vector<Vec3> vertices;
-  std::vector<Eigen::Vector3i> faces;
-};
-
-/// Loads a mesh, scaled by `scale` (1 for metres, 1e-3 for a mesh in millimetres). Throws InputError naming
-/// the file for a missing, empty, malformed or non-finite mesh.
-Mesh load_mesh(const std::string& path, double scale = 1.0);
 
 struct SurfaceSamples {
   std::vector<Vec3> points;

@@ -27,15 +27,6 @@ struct CellLayout {
   std::optional<uint64_t> seed;  ///< set when the layout was drawn
 };
 
-/// Clamp geometry, shared by the MJCF generator and the layout checks.
-struct ClampDims {
-  static constexpr double kBaseStart = 0.06;  ///< base block starts this far out from the pad [m]
-  static constexpr double kBaseEnd = 0.14;
-  static constexpr double kReach = 0.23;  ///< farthest point (handle tip) from the pad [m]
-  static constexpr double kHalfWidth = 0.03;
-  static constexpr double kPadRadius = 0.011;  ///< rubber pad on the part
-};
-
 /// The layout given by the cell file (seed unset) or drawn from the seed: part pose, 2-4 clamps, 0-3 clutter
 /// items. Throws InputError naming the cell file for an impossible layout given in the file (out of reach,
 /// intersecting the table, clamp off the table, overlaps).

@@ -71,7 +71,7 @@ TEST(Cli, BadInputGivesOneLineAndExitCode2) {
   const std::string urdf = temp_file("broken.urdf", "<robot name='r'><link name='a'></robot>");
   const std::string bad_robot = temp_file("badrobot.yaml", cell_with("  x_m: 0.44\n  y_m: 0.0\n", urdf));
   expect_bad_input(weldtwin("scan " + bad_robot + " --out " + out), "broken.urdf");
-  const std::string part = temp_file("nomesh_part.yaml", "name: p\nmodel: missing_mesh.stl\nheight_m: 0.1\n");
+  const std::string part = temp_file("nomesh_part.yaml", "name: p\nmodel: missing_mesh.stl\n");
   std::string nomesh = cell_with("  x_m: 0.44\n  y_m: 0.0\n");
   nomesh.replace(nomesh.find(test::repo("scenes/parts/tube_on_plate.yaml")),
                  test::repo("scenes/parts/tube_on_plate.yaml").size(), part);
@@ -125,7 +125,7 @@ TEST(Cli, PlanRefusesBadInputAndUnreachableSeams) {
       "rigid");
   const std::string stl = test::repo("scenes/parts/tube_on_plate.stl");
   const std::string head =
-      "name: p\nmodel: " + stl + "\nheight_m: 0.1\nfootprint_m: [[0,0],[1,0],[0,1]]\nseams:\n";
+      "name: p\nmodel: " + stl + "\nfootprint_m: [[0,0],[1,0],[0,1]]\nseams:\n";
   const std::string tail =
       "    normal: [0, 0, 1]\n    wall_normal: [0, -1, 0]\n    work_angle_deg: 45\n"
       "    travel_angle_deg: 10\n    torch_roll_deg: free\n    speed_mm_s: 8\n";

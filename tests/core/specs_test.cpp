@@ -59,7 +59,7 @@ TEST(PartSpec, ShippedPartsLoadWithTheirSeams) {
 
 TEST(PartSpec, BadSpecsAreRejected) {
   const std::string stl = test::repo("scenes/parts/tube_on_plate.stl");
-  const std::string head = "name: p\nmodel: " + stl + "\nheight_m: 0.1\nfootprint_m: [[0,0],[1,0],[0,1]]\n";
+  const std::string head = "name: p\nmodel: " + stl + "\nfootprint_m: [[0,0],[1,0],[0,1]]\n";
   const std::string seam = "seams:\n  - name: s\n    start: [0, 0, 0]\n";
   const std::string tail =
       "    normal: [0, 0, 1]\n    wall_normal: [0, -1, 0]\n    work_angle_deg: 45\n"
@@ -74,11 +74,11 @@ TEST(PartSpec, BadSpecsAreRejected) {
   EXPECT_NE(error_of([&] { PartSpec::load(write_temp("bad.yaml", "name: [unclosed\n")); }).find("bad.yaml"),
             std::string::npos);
   EXPECT_NE(error_of([&] { PartSpec::load(write_temp("empty.yaml", "")); }).find("empty"), std::string::npos);
-  const std::string missing_mesh = "name: p\nmodel: nowhere.stl\nheight_m: 0.1\n";
+  const std::string missing_mesh = "name: p\nmodel: nowhere.stl\n";
   EXPECT_NE(error_of([&] { PartSpec::load(write_temp("nomesh.yaml", missing_mesh)); }).find("nowhere.stl"),
             std::string::npos);
   // A model path too long for the file system (the fuzzer's): "does not exist", not a filesystem_error.
-  const std::string long_path = "name: p\nmodel: " + std::string(5000, 'a') + ".stl\nheight_m: 0.1\n";
+  const std::string long_path = "name: p\nmodel: " + std::string(5000, 'a') + ".stl\n";
   EXPECT_NE(error_of([&] { PartSpec::load(write_temp("longpath.yaml", long_path)); }).find("does not exist"),
             std::string::npos);
   const std::string letters = head + seam + "    end: [0, x, 0]\n" + tail;
@@ -95,7 +95,7 @@ TEST(PartSpec, SeamsNoTorchCanWeldAreRejectedAndHugeDirectionsKept) {
   auto spec = [&](const std::string& normal, const std::string& work, const std::string& travel,
                   const std::string& speed) {
     return "name: p\nmodel: " + stl +
-           "\nheight_m: 0.1\nfootprint_m: [[0,0],[1,0],[0,1]]\nseams:\n  - name: s\n    start: [0, 0, 0]\n"
+           "\nfootprint_m: [[0,0],[1,0],[0,1]]\nseams:\n  - name: s\n    start: [0, 0, 0]\n"
            "    end: [0.05, 0, 0]\n    normal: " +
            normal + "\n    wall_normal: [0, -1, 0]\n    work_angle_deg: " + work +
            "\n    travel_angle_deg: " + travel + "\n    torch_roll_deg: free\n    speed_mm_s: " + speed +

@@ -13,7 +13,7 @@
 #include <random>
 
 #include "core/error.hpp"
-#include "perception/cloud_io.hpp"
+#include "core/cloud_io.hpp"
 #include "perception/pose_error.hpp"
 #include "perception/scan_assembly.hpp"
 #include "sim/sweep_sim.hpp"

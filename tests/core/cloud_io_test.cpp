@@ -15,7 +15,7 @@
 #include <random>
 
 #include "core/error.hpp"
-#include "perception/cloud_io.hpp"
+#include "core/cloud_io.hpp"
 
 namespace weldtwin {
 namespace {

@@ -3,7 +3,7 @@
 // main(), and its ASCII reader took another 0.1 s for 58,000 points (see benchmarks/RESULTS.md). The formats
 // are PCL's own (PCD 0.7: ascii, binary and binary_compressed through liblzf, as PCL writes it) and the
 // Stanford PLY (ascii, binary little and big endian); tests check both against PCL's reader and writer.
-#include "perception/cloud_io.hpp"
+#include "core/cloud_io.hpp"
 
 #include <liblzf/lzf.h>
 

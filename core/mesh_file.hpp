@@ -1,0 +1,22 @@
+// Part meshes as files: STL (binary or ascii) through Assimp, PLY and OBJ through our own readers; checked
+// (finite, faces naming vertices, a size a part can have).
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "core/geometry.hpp"
+
+namespace weldtwin {
+
+struct Mesh {
+  std::vector<Vec3> vertices;
+  std::vector<Eigen::Vector3i> faces;
+};
+
+/// Loads a mesh, scaled by `scale` (1 for metres, 1e-3 for a mesh in millimetres). Throws InputError naming
+/// the file for a missing, empty, malformed or non-finite mesh.
+Mesh load_mesh(const std::string& path, double scale = 1.0);
+
+}  // namespace weldtwin
