@@ -4,10 +4,11 @@
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 
+#include "core/cloud_io.hpp"
 #include "core/error.hpp"
 #include "core/part_spec.hpp"
-#include "core/cloud_io.hpp"
 #include "perception/localizer.hpp"
 #include "perception/mesh_io.hpp"
 #include "perception/paper_localizer.hpp"
@@ -64,8 +65,15 @@ nlohmann::json pose_to_json(const PoseEstimate& pose) {
 }
 
 int run_localize(const LocalizeCommand& cmd) {
+  if (cmd.model.empty() && cmd.part.empty())
+    throw InputError("weldtwin localize: give the part: its spec (--part SPEC) or its mesh (--model MESH)");
   if (cmd.units != "m" && cmd.units != "mm") throw input_error(cmd.model, "--units must be m or mm");
-  const Mesh mesh = load_mesh(cmd.model, cmd.units == "mm" ? 1e-3 : 1.0);
+  if (cmd.model.empty() && cmd.units != "m")
+    throw input_error(cmd.part, "--units applies to --model; a part spec's mesh is in metres");
+  const std::optional<PartSpec> part =
+      cmd.part.empty() ? std::nullopt : std::optional(PartSpec::load(cmd.part));
+  const Mesh mesh =
+      cmd.model.empty() ? load_mesh(part->mesh_path) : load_mesh(cmd.model, cmd.units == "mm" ? 1e-3 : 1.0);
   size_t dropped = 0;
   std::vector<Vec3> viewpoints;  // where the sensor saw each point from, if the cloud says
   std::vector<Vec3> cloud = read_cloud(cmd.scan, &dropped, &viewpoints);
@@ -85,8 +93,7 @@ int run_localize(const LocalizeCommand& cmd) {
     viewpoints.swap(kept_viewpoints);
   }
   // Seam points from the part spec, when given: poses that weld the same place are not ambiguous.
-  const std::vector<Vec3> seam_points =
-      cmd.part.empty() ? std::vector<Vec3>() : PartSpec::load(cmd.part).seam_points(0.001);
+  const std::vector<Vec3> seam_points = part ? part->seam_points(0.001) : std::vector<Vec3>();
   const PoseEstimate pose = cmd.method == "paper"
                                 ? localize_paper(cloud, mesh)
                                 : localize(cloud, mesh, LocalizeSetting(), seam_points, viewpoints);

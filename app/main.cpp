@@ -114,12 +114,15 @@ int main(int argc, char** argv) {
   std::string roi;
   CLI::App* lc =
       app.add_subcommand("localize", "Find the part (its mesh) in a base-frame cloud of a table scene");
-  lc->add_option("--model", loc.model, "part mesh (STL, PLY, OBJ), part frame")->required();
+  lc->add_option("--model", loc.model,
+                 "part mesh (STL, PLY, OBJ), part frame (default: the --part spec's model)");
   lc->add_option("--scan", loc.scan, "cloud (PCD or PLY), base frame")->required();
   lc->add_option("--roi", roi, "optional crop box xmin,ymin,zmin,xmax,ymax,zmax [m] (not needed)");
   lc->add_option("--units", loc.units, "mesh units: m (default) or mm");
-  lc->add_option("--part", loc.part,
-                 "optional part spec: poses that put the seams on the same places are equivalent");
+  lc->add_option(
+      "--part", loc.part,
+      "part spec (its model is the mesh sought, unless --model is given): poses that put the seams on "
+      "the same places are equivalent");
   lc->add_option(
         "--method", loc.method,
         "ours (default), or paper: the published PassThrough/RANSAC/point-to-point ICP pipeline, kept "

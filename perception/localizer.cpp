@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <stdexcept>
 
@@ -70,7 +71,15 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
 
   // 1. The table plane, the range noise, and the limits that follow from the noise.
   const TablePlane table = find_table_plane(scan_base, s.table);
-  if (!table.found) return finish("no table plane in the scan");
+  if (!table.found) {
+    char why[240];
+    std::snprintf(
+        why, sizeof why,
+        "no table plane in the scan: no plane within %.0f deg of level and %.1f m of the robot's base "
+        "axis (a cloud in the robot's base frame, z up, in metres, with the table in view)",
+        s.table.max_tilt_deg, s.table.reach_radius_m);
+    return finish(why);
+  }
   out.table_plane = table.plane;
   const double noise = table.noise_m;
   out.noise_m = noise;

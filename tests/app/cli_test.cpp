@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/calibrate_command.hpp"
+#include "tests/real_data.hpp"
 #include "tests/test_support.hpp"
 
 namespace weldtwin {
@@ -124,8 +125,7 @@ TEST(Cli, PlanRefusesBadInputAndUnreachableSeams) {
                " --out " + out),
       "rigid");
   const std::string stl = test::repo("scenes/parts/tube_on_plate.stl");
-  const std::string head =
-      "name: p\nmodel: " + stl + "\nfootprint_m: [[0,0],[1,0],[0,1]]\nseams:\n";
+  const std::string head = "name: p\nmodel: " + stl + "\nfootprint_m: [[0,0],[1,0],[0,1]]\nseams:\n";
   const std::string tail =
       "    normal: [0, 0, 1]\n    wall_normal: [0, -1, 0]\n    work_angle_deg: 45\n"
       "    travel_angle_deg: 10\n    torch_roll_deg: free\n    speed_mm_s: 8\n";
@@ -172,6 +172,43 @@ TEST(Cli, ScanWritesLogCloudAndTruth) {
   std::ifstream pose(dir / "pose.json");
   const std::string pose_text((std::istreambuf_iterator<char>(pose)), std::istreambuf_iterator<char>());
   EXPECT_NE(pose_text.find("\"rays_cast\": true"), std::string::npos) << pose_text;
+  // The part spec alone names the mesh: the same pose as the mesh and the spec given apart.
+  const std::string spec = test::repo("scenes/parts/tube_tee.yaml"), scan = (dir / "s.pcd").string();
+  ASSERT_EQ(
+      weldtwin("localize -q --part " + spec + " --scan " + scan + " --out " + (dir / "a.json").string()).code,
+      0);
+  ASSERT_EQ(weldtwin("localize -q --part " + spec + " --model " + test::repo("scenes/parts/tube_tee.stl") +
+                     " --scan " + scan + " --out " + (dir / "b.json").string())
+                .code,
+            0);
+  nlohmann::json a, b;
+  std::ifstream(dir / "a.json") >> a;
+  std::ifstream(dir / "b.json") >> b;
+  EXPECT_TRUE(a["found"].get<bool>());
+  EXPECT_EQ(a["T_base_part"], b["T_base_part"]);
+  expect_bad_input(weldtwin("localize --scan " + scan + " --out " + (dir / "c.json").string()),
+                   "--part SPEC");
+}
+
+// Clouds from another tool that are no table scene in a robot's base frame (PCL's own test clouds, where the
+// real-data folder is present): read, and refused as untrustworthy (exit 3) with the reason, never a pose.
+TEST(Cli, OtherToolsCloudsOfNoTableSceneAreRefusedWithTheReason) {
+  const std::string clouds = test::real_data("clouds");
+  if (!std::filesystem::exists(clouds + "/bun0.pcd")) GTEST_SKIP() << "skipped: " << clouds << " not found";
+  const auto out = std::filesystem::temp_directory_path() / "weldtwin_cli_clouds.json";
+  for (const char* name : {"bun0.pcd", "bun4.pcd", "milk_color.pcd", "noisy_slice_displaced.pcd",
+                           "sac_plane_test.pcd", "table_scene_mug_stereo_textured.pcd", "cube.ply"}) {
+    const CliRun r = weldtwin("localize -q --part " + test::repo("scenes/parts/tube_on_plate.yaml") +
+                              " --scan " + clouds + "/" + name + " --out " + out.string());
+    EXPECT_EQ(r.code, 3) << name << ": " << r.err;
+    EXPECT_NE(r.err.find(std::string(name) +
+                         ": part not found: no table plane in the scan: no plane within 15 deg"),
+              std::string::npos)
+        << r.err;
+    nlohmann::json pose;
+    std::ifstream(out) >> pose;
+    EXPECT_FALSE(pose["found"].get<bool>()) << name;
+  }
 }
 
 TEST(Cli, ReplayJudgesAPlanInTheCellItWasMadeForAndNotElsewhere) {

@@ -3,6 +3,7 @@
 // pseudo-terminal by a fake A2 that the test runs: health, motor, both scan modes, stop; an unplugged port, a
 // device that vanishes mid-scan and a device reporting an error each give a clear error.
 #include "hw/rplidar.hpp"
+#include "tests/real_data.hpp"
 
 #include <gtest/gtest.h>
 
@@ -89,10 +90,8 @@ TEST(Rplidar, RealDeviceNodesDecodeToTheValuesAnotherDriverAsserts) {
 // (WELDTWIN_REAL_DATA, or ../shared/real beside the repository): the decoder finds the stream within its
 // first nodes, then reads it to the end without losing a byte, every angle within a turn.
 TEST(Rplidar, RealCapturedStreamsAreReadWhole) {
-  const char* env = std::getenv("WELDTWIN_REAL_DATA");
-  const std::string real = env ? env : std::string(WELDTWIN_SOURCE_DIR) + "/../shared/real";
-  const std::string dir = real + "/rplidar/scan_node_stream";
-  if (!std::ifstream(dir + "/frame_0002.bin")) GTEST_SKIP() << "skipped: " << real << " not found";
+  const std::string dir = test::real_data("rplidar/scan_node_stream");
+  if (!std::ifstream(dir + "/frame_0002.bin")) GTEST_SKIP() << "skipped: " << dir << " not found";
   for (const char* name : {"frame_0002.bin", "frame_0003.bin", "frame_0004.bin"}) {
     SCOPED_TRACE(name);
     std::ifstream in(dir + "/" + name, std::ios::binary);
