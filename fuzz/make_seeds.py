@@ -47,7 +47,9 @@ for name in sorted(os.listdir(parts)):
     if name.endswith(".stl") and os.path.getsize(path) < 20000:
         put("mesh", name, b"\0" + open(path, "rb").read())
     if name.endswith(".yaml"):
-        spec = open(path).read().replace("model: " + name[:-5] + ".stl", "model: part.stl")
+        spec = open(path).read().replace("model: " + name[:-5] + ".stl", "model: part.obj")
+        if name != "tube_on_plate.yaml":  # the mesh beside it is tube_on_plate's: its height, or none
+            spec = "\n".join(l for l in spec.split("\n") if not l.startswith("height_"))
         put("part_spec", name, spec.encode())
 box = ("ply\nformat ascii 1.0\nelement vertex 8\nproperty float x\nproperty float y\nproperty float z\nelement face 6\n"
        "property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n"

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "core/error.hpp"
+#include "tests/input_error_of.hpp"
 #include "tests/test_support.hpp"
 
 namespace weldtwin {
@@ -87,14 +88,7 @@ std::string ascii_stl(const Mesh& m) {
   return os.str();
 }
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
+using test::input_error_of;
 
 const char* kSeam =
     "seams:\n  - name: front\n    start: [-0.025, -0.025, 0.008]\n    end: [0.025, -0.025, 0.008]\n"
@@ -184,13 +178,13 @@ TEST(PartOutline, AMeshOffItsBaseOrAHeightTheMeshDoesNotHaveIsRefused) {
   add_box(lifted, Vec3(-0.08, -0.08, 0.02), Vec3(0.08, 0.08, 0.03));
   const std::string stl = write_file("lifted.stl", ascii_stl(lifted));
   const std::string spec = write_file("lifted.yaml", "name: p\nmodel: " + stl + "\n" + kSeam);
-  const std::string why = error_of([&] { PartSpec::load(spec); });
+  const std::string why = input_error_of([&] { PartSpec::load(spec); });
   EXPECT_NE(why.find("lifted.yaml"), std::string::npos) << why;
   EXPECT_NE(why.find("lowest point is at z = 20.0 mm"), std::string::npos) << why;
 
   const std::string tube = test::repo("scenes/parts/tube_on_plate.stl");
   const std::string tall = write_file("tall.yaml", "name: p\nmodel: " + tube + "\nheight_mm: 120\n" + kSeam);
-  const std::string height = error_of([&] { PartSpec::load(tall); });
+  const std::string height = input_error_of([&] { PartSpec::load(tall); });
   EXPECT_NE(height.find("height 120.0 mm but the mesh reaches 108.0 mm"), std::string::npos) << height;
   EXPECT_NEAR(PartSpec::load(write_file("mm.yaml", "name: p\nmodel: " + tube + "\nheight_mm: 108\n" + kSeam))
                   .height_m,

@@ -7,6 +7,7 @@
 #include "core/cell_spec.hpp"
 #include "core/error.hpp"
 #include "core/part_spec.hpp"
+#include "tests/input_error_of.hpp"
 #include "tests/test_support.hpp"
 
 namespace weldtwin {
@@ -20,14 +21,7 @@ std::string write_temp(const std::string& name, const std::string& text) {
   return path;
 }
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
+using test::input_error_of;
 
 TEST(PartSpec, ShippedPartsLoadWithTheirSeams) {
   const PartSpec tube = PartSpec::load(test::repo("scenes/parts/tube_on_plate.yaml"));
@@ -64,25 +58,29 @@ TEST(PartSpec, BadSpecsAreRejected) {
   const std::string tail =
       "    normal: [0, 0, 1]\n    wall_normal: [0, -1, 0]\n    work_angle_deg: 45\n"
       "    travel_angle_deg: 0\n    torch_roll_deg: free\n    speed_mm_s: 8\n";
-  EXPECT_NE(error_of([&] {
+  EXPECT_NE(input_error_of([&] {
               PartSpec::load(write_temp("zero.yaml", head + seam + "    end: [0, 0, 0]\n" + tail));
             }).find("zero-length"),
             std::string::npos);
   const std::string parallel = head + seam + "    end: [0, 0, 0.05]\n" + tail;  // travel along n
-  EXPECT_NE(error_of([&] { PartSpec::load(write_temp("parallel.yaml", parallel)); }).find("parallel"),
+  EXPECT_NE(input_error_of([&] { PartSpec::load(write_temp("parallel.yaml", parallel)); }).find("parallel"),
             std::string::npos);
-  EXPECT_NE(error_of([&] { PartSpec::load(write_temp("bad.yaml", "name: [unclosed\n")); }).find("bad.yaml"),
+  EXPECT_NE(
+      input_error_of([&] { PartSpec::load(write_temp("bad.yaml", "name: [unclosed\n")); }).find("bad.yaml"),
+      std::string::npos);
+  EXPECT_NE(input_error_of([&] { PartSpec::load(write_temp("empty.yaml", "")); }).find("empty"),
             std::string::npos);
-  EXPECT_NE(error_of([&] { PartSpec::load(write_temp("empty.yaml", "")); }).find("empty"), std::string::npos);
   const std::string missing_mesh = "name: p\nmodel: nowhere.stl\n";
-  EXPECT_NE(error_of([&] { PartSpec::load(write_temp("nomesh.yaml", missing_mesh)); }).find("nowhere.stl"),
-            std::string::npos);
+  EXPECT_NE(
+      input_error_of([&] { PartSpec::load(write_temp("nomesh.yaml", missing_mesh)); }).find("nowhere.stl"),
+      std::string::npos);
   // A model path too long for the file system (the fuzzer's): "does not exist", not a filesystem_error.
   const std::string long_path = "name: p\nmodel: " + std::string(5000, 'a') + ".stl\n";
-  EXPECT_NE(error_of([&] { PartSpec::load(write_temp("longpath.yaml", long_path)); }).find("does not exist"),
-            std::string::npos);
+  EXPECT_NE(
+      input_error_of([&] { PartSpec::load(write_temp("longpath.yaml", long_path)); }).find("does not exist"),
+      std::string::npos);
   const std::string letters = head + seam + "    end: [0, x, 0]\n" + tail;
-  EXPECT_NE(error_of([&] { PartSpec::load(write_temp("letters.yaml", letters)); }).find("letters.yaml"),
+  EXPECT_NE(input_error_of([&] { PartSpec::load(write_temp("letters.yaml", letters)); }).find("letters.yaml"),
             std::string::npos);
 }
 
@@ -102,27 +100,27 @@ TEST(PartSpec, SeamsNoTorchCanWeldAreRejectedAndHugeDirectionsKept) {
            "\n";
   };
   for (const char* speed : {"0.000001", "0.001", "1e308", "-8", "0"})
-    EXPECT_NE(error_of([&] {
+    EXPECT_NE(input_error_of([&] {
                 PartSpec::load(write_temp("speed.yaml", spec("[0, 0, 1]", "45", "10", speed)));
               }).find("speed_mm_s must be within"),
               std::string::npos)
         << speed;
   for (const char* work : {"180", "-10", "91"})
-    EXPECT_NE(error_of([&] {
+    EXPECT_NE(input_error_of([&] {
                 PartSpec::load(write_temp("work.yaml", spec("[0, 0, 1]", work, "10", "8")));
               }).find("work_angle_deg must be within 0-90"),
               std::string::npos)
         << work;
-  EXPECT_NE(error_of([&] {
+  EXPECT_NE(input_error_of([&] {
               PartSpec::load(write_temp("travel.yaml", spec("[0, 0, 1]", "45", "60", "8")));
             }).find("travel_angle_deg"),
             std::string::npos);
-  EXPECT_NE(error_of([&] {
+  EXPECT_NE(input_error_of([&] {
               PartSpec::load(write_temp("normal.yaml", spec("[0, 0, 0]", "45", "10", "8")));
             }).find("normal must be a finite, non-zero direction"),
             std::string::npos);
   for (const char* bad : {"[0, 0, .nan]", "[0, .inf, 0]"})
-    EXPECT_NE(error_of([&] {
+    EXPECT_NE(input_error_of([&] {
                 PartSpec::load(write_temp("normal.yaml", spec(bad, "45", "10", "8")));
               }).find("must be finite"),
               std::string::npos)
@@ -133,7 +131,7 @@ TEST(PartSpec, SeamsNoTorchCanWeldAreRejectedAndHugeDirectionsKept) {
   std::string many = spec("[0, 0, 1]", "45", "10", "8");
   const std::string one = many.substr(many.find("  - name: s"));
   for (int i = 0; i < 1999; ++i) many += one;
-  EXPECT_NE(error_of([&] { PartSpec::load(write_temp("many.yaml", many)); }).find("lists 2000 seams"),
+  EXPECT_NE(input_error_of([&] { PartSpec::load(write_temp("many.yaml", many)); }).find("lists 2000 seams"),
             std::string::npos);
   const PartSpec edge = PartSpec::load(write_temp("edge.yaml", spec("[0, 0, 1]", "90", "-45", "0.5")));
   EXPECT_NEAR(edge.seams[0].work_angle_rad, kPi / 2, 1e-12);
@@ -146,16 +144,16 @@ TEST(CellSpec, DefaultCellLoadsAndBadOnesAreRejected) {
   EXPECT_NEAR(cell.table.x_max_m - cell.table.x_min_m, 0.8, 1e-12);
   EXPECT_NEAR(cell.table.y_max_m - cell.table.y_min_m, 1.2, 1e-12);
   const std::string dir = test::repo("scenes/cells/");
-  EXPECT_NE(error_of([&] {
+  EXPECT_NE(input_error_of([&] {
               CellSpec::load(write_temp("c1.yaml", "name: x\nenvironment: " + dir + "nope.xml\n"));
             }).find("nope.xml"),
             std::string::npos);
   const std::string ok_head = "environment: " + dir +
                               "default.xml\nrobot: " + test::repo("scenes/robots/aubo_i5.urdf") +
                               "\nsweep: " + test::repo("scenes/sweeps/default.yaml") + "\n";
-  EXPECT_NE(error_of([&] { CellSpec::load(write_temp("c2.yaml", ok_head)); }).find("part"),
+  EXPECT_NE(input_error_of([&] { CellSpec::load(write_temp("c2.yaml", ok_head)); }).find("part"),
             std::string::npos);
-  EXPECT_NE(error_of([&] {
+  EXPECT_NE(input_error_of([&] {
               CellSpec::load(write_temp(
                   "c3.yaml",
                   ok_head + "part: {spec: " + test::repo("scenes/parts/tube_tee.yaml") + ", x_m: 0.4}\n"));
