@@ -17,6 +17,20 @@ constexpr double kMinSpeed = 0.5e-3;         // slower than any weld travels [m/
 constexpr double kMaxSpeed = 0.2;            // faster than any arc weld travels [m/s]
 constexpr double kMaxTravelAngle = kPi / 4;  // [rad]
 constexpr double kBaseTolerance = 0.5e-3;    // the mesh's base at z = 0, its top at the height given [m]
+constexpr double kSeamMargin = 0.02;         // a seam's points at most this far outside the mesh's box [m]
+constexpr int kSeamChecks = 64;              // points checked along each seam
+
+Vec3 mesh_box_lo(const Mesh& mesh) {
+  Vec3 lo = Vec3::Constant(1e300);
+  for (const Vec3& v : mesh.vertices) lo = lo.cwiseMin(v);
+  return lo;
+}
+
+Vec3 mesh_box_hi(const Mesh& mesh) {
+  Vec3 hi = Vec3::Constant(-1e300);
+  for (const Vec3& v : mesh.vertices) hi = hi.cwiseMax(v);
+  return hi;
+}
 
 std::string mm(double m) {
   char buf[32];
@@ -76,6 +90,8 @@ Seam parse_seam(const YAML::Node& node, size_t index, const std::string& file) {
     if (!s.axis.allFinite() || s.axis.stableNorm() < 1e-9) throw input_error(file, where + "zero arc axis");
     s.axis.stableNormalize();
     s.sweep_rad = yaml::angle(node, "sweep", file);
+    if (!(std::abs(s.sweep_rad) <= 2 * kPi + 1e-9))
+      throw input_error(file, where + "sweep_deg must be within -360 and +360 (once around at most)");
     const Vec3 r = s.start - s.center;
     s.radius_m = (r - r.dot(s.axis) * s.axis).norm();
     if (std::abs(r.dot(s.axis)) > 1e-6) throw input_error(file, where + "start is not in the arc's plane");
@@ -196,6 +212,18 @@ PartSpec PartSpec::parse(const std::string& yaml_path) {
     throw input_error(yaml_path, "field 'seams' lists " + std::to_string(seams.size()) + " seams; at most " +
                                      std::to_string(kMaxSeams) + " are welded in one clamping");
   for (size_t i = 0; i < seams.size(); ++i) part.seams.push_back(parse_seam(seams[i], i, yaml_path));
+  // Every seam on the part: its points within the mesh's box and a margin (a seam elsewhere is a typing
+  // error, and one kilometres long would be sampled millimetre by millimetre downstream).
+  const Vec3 lo = mesh_box_lo(mesh) - Vec3::Constant(kSeamMargin),
+             hi = mesh_box_hi(mesh) + Vec3::Constant(kSeamMargin);
+  for (const Seam& seam : part.seams)
+    for (int k = 0; k <= kSeamChecks; ++k) {
+      const Vec3 p = seam.point_at(static_cast<double>(k) / kSeamChecks);
+      if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any())
+        throw input_error(yaml_path, "seam '" + seam.name + "' leaves the part: it passes through (" +
+                                         mm(p.x()) + ", " + mm(p.y()) + ", " + mm(p.z()) + "), more than " +
+                                         mm(kSeamMargin) + " outside the mesh's box");
+    }
   if (!root["clamp_sites"]) part.clamp_sites = outline_clamp_sites(mesh, part.footprint, part.seams);
   return part;
 }

@@ -191,5 +191,27 @@ TEST(PartOutline, AMeshOffItsBaseOrAHeightTheMeshDoesNotHaveIsRefused) {
               0.108, 1e-12);
 }
 
+// What the fuzzer wrote: a seam ending 2.5 km from the part (sampled every few millimetres downstream, the
+// spec took seconds to load), and an arc wound twice around.
+TEST(PartOutline, SeamsOffThePartOrWoundMoreThanOnceAreRefused) {
+  const std::string tube = test::repo("scenes/parts/tube_on_plate.stl");
+  std::string far = kSeam;
+  far.replace(far.find("end: [0.025, -0.025, 0.008]"), 27, "end: [2504.0, -0.025, 0.008]");
+  const std::string why =
+      input_error_of([&] { PartSpec::load(write_file("far.yaml", "name: p\nmodel: " + tube + "\n" + far)); });
+  EXPECT_NE(why.find("seam 'front' leaves the part"), std::string::npos) << why;
+  const std::string arc =
+      "seams:\n  - name: round\n    start: [0.03, 0, 0.008]\n    center: [0, 0, 0.008]\n    axis: [0, 0, 1]\n"
+      "    sweep_deg: 720\n    normal: [0, 0, 1]\n    wall_normal: radial\n    work_angle_deg: 45\n"
+      "    travel_angle_deg: 0\n    torch_roll_deg: free\n    speed_mm_s: 8\n";
+  const std::string twice = input_error_of(
+      [&] { PartSpec::load(write_file("twice.yaml", "name: p\nmodel: " + tube + "\n" + arc)); });
+  EXPECT_NE(twice.find("sweep_deg must be within -360 and +360"), std::string::npos) << twice;
+  std::string once = arc;
+  once.replace(once.find("720"), 3, "360");
+  EXPECT_EQ(PartSpec::load(write_file("once.yaml", "name: p\nmodel: " + tube + "\n" + once)).seams.size(),
+            1u);
+}
+
 }  // namespace
 }  // namespace weldtwin
