@@ -7,8 +7,8 @@
 #include <nlohmann/json.hpp>
 
 #include "core/cell_spec.hpp"
-#include "core/part_spec.hpp"
 #include "core/cloud_io.hpp"
+#include "core/part_spec.hpp"
 #include "perception/scan_assembly.hpp"
 #include "sim/cell_layout.hpp"
 #include "sim/mujoco_world.hpp"

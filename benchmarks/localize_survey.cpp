@@ -18,8 +18,8 @@
 #include <thread>
 
 #include "benchmarks/real_scan_check.hpp"
-#include "core/error.hpp"
 #include "core/cloud_io.hpp"
+#include "core/error.hpp"
 #include "perception/localizer.hpp"
 #include "perception/paper_localizer.hpp"
 #include "perception/pose_error.hpp"

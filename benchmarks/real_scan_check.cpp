@@ -7,9 +7,9 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "core/cloud_io.hpp"
 #include "core/error.hpp"
 #include "core/part_spec.hpp"
-#include "core/cloud_io.hpp"
 #include "perception/localizer.hpp"
 #include "perception/mesh_io.hpp"
 #include "perception/paper_localizer.hpp"

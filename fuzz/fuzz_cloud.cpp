@@ -1,6 +1,6 @@
 // PCD and PLY clouds: the first byte picks the extension, the rest is the file.
-#include "fuzz/fuzz_file.hpp"
 #include "core/cloud_io.hpp"
+#include "fuzz/fuzz_file.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;

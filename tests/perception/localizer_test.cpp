@@ -12,8 +12,8 @@
 #include <fstream>
 #include <random>
 
-#include "core/error.hpp"
 #include "core/cloud_io.hpp"
+#include "core/error.hpp"
 #include "perception/pose_error.hpp"
 #include "perception/scan_assembly.hpp"
 #include "sim/sweep_sim.hpp"
