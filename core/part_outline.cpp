@@ -30,13 +30,13 @@ std::optional<double> pad_height(const Mesh& mesh, const Vec2& xy, const ClampSi
 
 }  // namespace
 
-MeshHeights mesh_heights(const Mesh& mesh) {
-  MeshHeights h{1e300, -1e300};
+MeshBox mesh_box(const Mesh& mesh) {
+  MeshBox box{Vec3::Constant(1e300), Vec3::Constant(-1e300)};
   for (const Vec3& v : mesh.vertices) {
-    h.bottom_m = std::min(h.bottom_m, v.z());
-    h.top_m = std::max(h.top_m, v.z());
+    box.lo = box.lo.cwiseMin(v);
+    box.hi = box.hi.cwiseMax(v);
   }
-  return h;
+  return box;
 }
 
 std::vector<Vec2> convex_outline(const Mesh& mesh) {

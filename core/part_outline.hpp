@@ -11,11 +11,11 @@
 
 namespace weldtwin {
 
-/// Lowest and highest z of the mesh [m].
-struct MeshHeights {
-  double bottom_m = 0.0, top_m = 0.0;
+/// The mesh's axis-aligned box in the part frame [m]: lo.z() is its base, hi.z() its height above the table.
+struct MeshBox {
+  Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();
 };
-MeshHeights mesh_heights(const Mesh& mesh);
+MeshBox mesh_box(const Mesh& mesh);
 
 /// The mesh seen from above: the convex outline of its vertices on the table plane, counter-clockwise,
 /// without collinear points. For a part that is not convex seen from above it holds the part with some table

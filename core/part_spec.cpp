@@ -20,18 +20,6 @@ constexpr double kBaseTolerance = 0.5e-3;    // the mesh's base at z = 0, its to
 constexpr double kSeamMargin = 0.02;         // a seam's points at most this far outside the mesh's box [m]
 constexpr int kSeamChecks = 64;              // points checked along each seam
 
-Vec3 mesh_box_lo(const Mesh& mesh) {
-  Vec3 lo = Vec3::Constant(1e300);
-  for (const Vec3& v : mesh.vertices) lo = lo.cwiseMin(v);
-  return lo;
-}
-
-Vec3 mesh_box_hi(const Mesh& mesh) {
-  Vec3 hi = Vec3::Constant(-1e300);
-  for (const Vec3& v : mesh.vertices) hi = hi.cwiseMax(v);
-  return hi;
-}
-
 std::string mm(double m) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.1f mm", m * 1e3);
@@ -164,17 +152,17 @@ PartSpec PartSpec::parse(const std::string& yaml_path) {
   part.mesh_path = yaml::resolve(yaml_path, yaml::text(root, "model", yaml_path));
   if (!is_file(part.mesh_path)) throw input_error(yaml_path, "mesh '" + part.mesh_path + "' does not exist");
   const Mesh mesh = load_mesh(part.mesh_path);
-  const MeshHeights heights = mesh_heights(mesh);
-  if (std::abs(heights.bottom_m) > kBaseTolerance)
-    throw input_error(yaml_path, "the mesh's lowest point is at z = " + mm(heights.bottom_m) +
+  const MeshBox box = mesh_box(mesh);
+  if (std::abs(box.lo.z()) > kBaseTolerance)
+    throw input_error(yaml_path, "the mesh's lowest point is at z = " + mm(box.lo.z()) +
                                      " in the part frame, whose z = 0 rests on the table: move the mesh's "
                                      "origin (and the seams) to the part's base");
   const auto given_height = yaml::maybe_length(root, "height", yaml_path);
-  if (given_height && std::abs(*given_height - heights.top_m) > kBaseTolerance)
+  if (given_height && std::abs(*given_height - box.hi.z()) > kBaseTolerance)
     throw input_error(yaml_path,
-                      "height " + mm(*given_height) + " but the mesh reaches " + mm(heights.top_m) +
+                      "height " + mm(*given_height) + " but the mesh reaches " + mm(box.hi.z()) +
                           " above the table: correct it or leave it out (it is taken from the mesh)");
-  part.height_m = given_height.value_or(heights.top_m);
+  part.height_m = given_height.value_or(box.hi.z());
 
   if (const YAML::Node fp = root["footprint_m"]) {
     if (!fp.IsSequence() || fp.size() < 3)
@@ -214,8 +202,7 @@ PartSpec PartSpec::parse(const std::string& yaml_path) {
   for (size_t i = 0; i < seams.size(); ++i) part.seams.push_back(parse_seam(seams[i], i, yaml_path));
   // Every seam on the part: its points within the mesh's box and a margin (a seam elsewhere is a typing
   // error, and one kilometres long would be sampled millimetre by millimetre downstream).
-  const Vec3 lo = mesh_box_lo(mesh) - Vec3::Constant(kSeamMargin),
-             hi = mesh_box_hi(mesh) + Vec3::Constant(kSeamMargin);
+  const Vec3 lo = box.lo - Vec3::Constant(kSeamMargin), hi = box.hi + Vec3::Constant(kSeamMargin);
   for (const Seam& seam : part.seams)
     for (int k = 0; k <= kSeamChecks; ++k) {
       const Vec3 p = seam.point_at(static_cast<double>(k) / kSeamChecks);

@@ -119,9 +119,9 @@ TEST(PartOutline, SurfaceAboveIsTheHighestFaceOrNothing) {
   ASSERT_TRUE(post);
   EXPECT_NEAR(post->z_m, 0.108, 1e-12);
   EXPECT_FALSE(surface_above(m, Vec2(0.09, 0.0)));
-  const MeshHeights h = mesh_heights(m);
-  EXPECT_EQ(h.bottom_m, 0.0);
-  EXPECT_EQ(h.top_m, 0.108);
+  const MeshBox box = mesh_box(m);
+  EXPECT_EQ(box.lo.z(), 0.0);
+  EXPECT_EQ(box.hi.z(), 0.108);
 }
 
 TEST(PartOutline, ClampSitesSitOnThePlateInsideItsCornersAndEdgesPointingOut) {
