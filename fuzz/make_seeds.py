@@ -3,7 +3,8 @@
     fuzz/make_seeds.py OUT_DIR [--seed-bags BIN] [--real DIR]
 Harnesses that read their first byte as a format or a chunk size get it prefixed (cloud: even PCD, odd PLY;
 mesh: 0 STL, 1 PLY, 2 OBJ; pose_plan: even pose, odd plan; ros_bag, by the byte mod 3: ROS 1, ROS 2 sqlite3,
-ROS 2 MCAP; rplidar: even SCAN, odd EXPRESS, and the chunk size; aubo_messages: the chunk size). The shipped
+ROS 2 MCAP; rplidar: even SCAN, odd EXPRESS, and the chunk size; aubo_messages: odd the state stream, even
+the command replies, and the chunk size). The shipped
 part meshes, part and cell specs are added as they are; --seed-bags runs fuzz/seed_bags (bags from weldtwin's
 own writers); --real adds files made outside the project from DIR (its bags/ and rplidar/, as the real-data
 README lays them out)."""
@@ -109,14 +110,41 @@ def capsule(start_deg, new_turn):
 
 put("rplidar", "express.bin", bytes([1 | (31 << 1)]) + b"".join(capsule(i * 11.25, i == 0) for i in range(40)))
 
-frame = {"timestamp": 1.0, "R1_actual_q": [0, 0, 1.57, 0, 1.57, 0], "R1_actual_qd": [0] * 6,
-         "R1_robot_mode": "Running", "R1_safety_mode": "Normal"}
-stream = json.dumps({"jsonrpc": "2.0", "result": 0, "id": 1}) + "\n" + "".join(json.dumps(frame) + "\n" for _ in range(5))
-put("aubo_messages", "state.txt", bytes([63]) + stream.encode())
-replies = [{"jsonrpc": "2.0", "result": 3, "id": 1},
-           {"jsonrpc": "2.0", "error": {"code": -1, "message": "no such buffer"}, "id": 1},
+
+
+def msgpack(v):
+    """The MessagePack encoding of v (None, bool, int, float, str, list, dict): the RTDE payloads' form."""
+    if v is None:
+        return b"\xc0"
+    if v is True or v is False:
+        return b"\xc3" if v else b"\xc2"
+    if isinstance(v, int):
+        return struct.pack("B", v) if 0 <= v < 128 else (struct.pack("b", v) if -32 <= v < 0 else b"\xd3" + struct.pack(">q", v))
+    if isinstance(v, float):
+        return b"\xcb" + struct.pack(">d", v)
+    if isinstance(v, str):
+        b = v.encode()
+        return (struct.pack("B", 0xA0 | len(b)) if len(b) < 32 else b"\xd9" + struct.pack("B", len(b))) + b
+    if isinstance(v, list):
+        return struct.pack("B", 0x90 | len(v)) + b"".join(msgpack(x) for x in v) if len(v) < 16 else \
+            b"\xdc" + struct.pack(">H", len(v)) + b"".join(msgpack(x) for x in v)
+    return struct.pack("B", 0x80 | len(v)) + b"".join(msgpack(k) + msgpack(x) for k, x in v.items())
+
+
+def sof(payload):
+    return b"SOF\x01" + struct.pack(">H", len(payload)) + payload
+
+
+# aubo_messages: the first byte's lowest bit picks the state stream (1) or the command replies (0), the rest
+# the chunk size - 1.
+state = [0, [0.0, 0.0, 1.57, 0.0, 1.57, 0.0], [0.0] * 6, "Running", "Normal"]
+stream = sof(msgpack([100, 0])) + b"".join(sof(msgpack(state)) for _ in range(5))
+put("aubo_messages", "state.bin", bytes([(31 << 1) | 1]) + stream)
+replies = [{"jsonrpc": "2.0", "result": 0, "id": 1},
+           {"jsonrpc": "2.0", "result": -5, "id": 1},
+           {"jsonrpc": "2.0", "error": {"code": -32601, "message": "method not found"}, "id": 1},
            {"jsonrpc": "2.0", "result": [0.1, 0.2, 0.3, 0.4, 0.5, 0.6], "id": 1}]
-put("aubo_messages", "replies.txt", bytes([7]) + "".join(json.dumps(r) for r in replies).encode())
+put("aubo_messages", "replies.txt", bytes([3 << 1]) + "".join(json.dumps(r) for r in replies).encode())
 
 if args.real:
     real = args.real
@@ -137,4 +165,4 @@ if args.real:
     for path in sorted(glob.glob(os.path.join(real, "aubo_arcs", "*.jsonl"))):
         data = open(path, "rb").read()
         for k in range(0, min(len(data), 40000), 4000):  # the harness reads up to 4 kB
-            put("aubo_messages", "real_%d_%s" % (k, os.path.basename(path)), bytes([31]) + data[k:k + 4000])
+            put("aubo_messages", "real_%d_%s" % (k, os.path.basename(path)), bytes([15 << 1]) + data[k:k + 4000])

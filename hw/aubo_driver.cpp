@@ -1,11 +1,13 @@
-// The Aubo i5 on its ARCS controller. Method and field names follow the controller SDK's published API
-// (JSON-RPC 2.0 on port 30004: `login`, `rob1.RobotState.*`, `rob1.MotionControl.*`; RTDE on port 30010:
-// `R1_actual_q`, `R1_actual_qd`, `R1_robot_mode`, `R1_safety_mode`). docs/hardware.md lists every exchange.
+// The Aubo i5 on its ARCS controller. Method names, positional parameters and result codes follow the
+// vendor's own JSON-RPC examples (port 30004: `getRobotNames`, `<robot>.RobotState.*`,
+// `<robot>.MotionControl.*`); the state stream follows the vendor's RTDE codec (port 30010: SOF frames, the
+// segments `R1_actual_q`, `R1_actual_qd`, `R1_robot_mode`, `R1_safety_mode`). docs/hardware.md lists every
+// exchange and says which forms are inferred rather than seen in the vendor's examples.
 //
 // A trajectory goes to the controller as a path buffer of joint waypoints at the plan's 200 Hz step (buffer
-// type 2: waypoints at a fixed time interval), is checked by the controller (pathBufferEval,
-// pathBufferValid), then run (movePathBuffer) while the RTDE stream is watched. Any fault, silence, dropped
-// connection, overrun or stop request ends in stopJoint and a wait for the arm to halt.
+// type 2: waypoints at a fixed time interval), is checked by the controller against the robot's joint limits
+// (pathBufferEval, pathBufferValid), then run (movePathBuffer) while the RTDE stream is watched. Any fault,
+// silence, dropped connection, overrun or stop request ends in stopJoint and a wait for the arm to halt.
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <thread>
@@ -21,11 +23,17 @@ namespace {
 using nlohmann::json;
 
 constexpr const char* kBuffer = "weldtwin";
-constexpr int kBufferType = 2;            // joint waypoints at a fixed time interval
-constexpr size_t kAppendChunk = 200;      // waypoints per pathBufferAppend (1 s of plan)
-constexpr double kStopAcceleration = 3;   // [rad/s^2] stopJoint: a controlled stop
-constexpr double kHaltedVelocity = 1e-3;  // [rad/s] every joint slower than this: the arm stands
-constexpr double kSilentStream_s = 0.1;   // [s] no state frame for this long: ask the motion id instead
+constexpr int kBufferType = 2;                 // joint waypoints at a fixed time interval
+constexpr size_t kAppendChunk = 200;           // waypoints per pathBufferAppend (1 s of plan)
+constexpr double kStopAcceleration = 3;        // [rad/s^2] stopJoint: a controlled stop
+constexpr double kHaltedVelocity = 1e-3;       // [rad/s] every joint slower than this: the arm stands
+constexpr double kSilentStream_s = 0.1;        // [s] no state frame for this long: ask the motion id instead
+constexpr double kStateRate_hz = 200;          // the RTDE subscription's frequency
+constexpr int kStateChannel = 0;               // the RTDE channel we subscribe on
+constexpr int kNoBuffer = -5;                  // pathBufferFree's code for a buffer that does not exist
+constexpr const char* kLogin = "__login__";    // the SDK's login method (docs/hardware.md: inferred)
+constexpr const char* kDefaultRobot = "rob1";  // the robot's name until getRobotNames says otherwise
+
 class RpcChannel {
  public:
   explicit RpcChannel(double timeout_s) : timeout_s_(timeout_s) {}
@@ -61,23 +69,29 @@ class RpcChannel {
   int next_id_ = 0;
 };
 
+json six(const JointVector& q) {
+  return json::array({q[0], q[1], q[2], q[3], q[4], q[5]});
+}
+
 json waypoints(const JointTrajectory& t, size_t from, size_t to) {
   json a = json::array();
-  for (size_t i = from; i < to; ++i)
-    a.push_back({t.q[i][0], t.q[i][1], t.q[i][2], t.q[i][3], t.q[i][4], t.q[i][5]});
+  for (size_t i = from; i < to; ++i) a.push_back(six(t.q[i]));
   return a;
 }
 
-/// The requests that load and start a trajectory, in order.
-std::vector<std::pair<std::string, json>> load_requests(const JointTrajectory& t, double speed_fraction) {
+/// The requests that load a trajectory, in order (methods without the robot's name): the path is evaluated
+/// against the robot's joint acceleration and velocity limits.
+std::vector<std::pair<std::string, json>> load_requests(const JointTrajectory& t, double speed_fraction,
+                                                        const JointVector& max_acceleration,
+                                                        const JointVector& max_velocity) {
   std::vector<std::pair<std::string, json>> r;
-  r.emplace_back("rob1.MotionControl.setSpeedFraction", json::array({speed_fraction}));
-  r.emplace_back("rob1.MotionControl.pathBufferAlloc", json::array({kBuffer, kBufferType, t.q.size()}));
+  r.emplace_back("MotionControl.setSpeedFraction", json::array({speed_fraction}));
+  r.emplace_back("MotionControl.pathBufferAlloc", json::array({kBuffer, kBufferType, t.q.size()}));
   for (size_t i = 0; i < t.q.size(); i += kAppendChunk)
-    r.emplace_back("rob1.MotionControl.pathBufferAppend",
+    r.emplace_back("MotionControl.pathBufferAppend",
                    json::array({kBuffer, waypoints(t, i, std::min(t.q.size(), i + kAppendChunk))}));
-  r.emplace_back("rob1.MotionControl.pathBufferEval",
-                 json::array({kBuffer, json::array(), json::array(), t.dt_s}));
+  r.emplace_back("MotionControl.pathBufferEval",
+                 json::array({kBuffer, six(max_acceleration), six(max_velocity), t.dt_s}));
   return r;
 }
 
@@ -89,15 +103,11 @@ class AuboDriver : public RobotDriver {
         rpc_port_(rpc_port),
         rtde_port_(rtde_port),
         set_(setting),
-        rpc_(setting.timeout_s) {
+        rpc_(setting.timeout_s),
+        max_acceleration_(robot.max_acceleration()),
+        max_velocity_(robot.max_velocity()) {
     if (robot.dof() != 6)
       throw InputError("aubo://: the robot model has " + std::to_string(robot.dof()) + " joints, not 6");
-  }
-  ~AuboDriver() override {
-    try {
-      if (rpc_.is_open()) rpc_.call("logout", json::array(), 0.5);
-    } catch (...) {  // leaving anyway
-    }
   }
 
   std::string describe() const override {
@@ -117,8 +127,8 @@ class AuboDriver : public RobotDriver {
     }
     std::string mode, safety;
     try {
-      mode = rpc_.call("rob1.RobotState.getRobotModeType", json::array()).get<std::string>();
-      safety = rpc_.call("rob1.RobotState.getSafetyModeType", json::array()).get<std::string>();
+      mode = call("RobotState.getRobotModeType", json::array()).get<std::string>();
+      safety = call("RobotState.getSafetyModeType", json::array()).get<std::string>();
     } catch (const std::exception& e) {
       throw RobotError(describe() + ": cannot read the arm's mode: " + e.what());
     }
@@ -128,17 +138,8 @@ class AuboDriver : public RobotDriver {
     if (safety != "Normal")
       throw RobotError(describe() + ": the arm is in safety mode " + safety + ": clear it on the pendant");
     try {
-      rtde_ = JsonLink::connect(host_, rtde_port_, set_.timeout_s);
-      rtde_.send(
-          json{
-              {"jsonrpc", "2.0"},
-              {"method", "subscribe"},
-              {"params",
-               {{"frequency", 200},
-                {"fields", {"timestamp", "R1_actual_q", "R1_actual_qd", "R1_robot_mode", "R1_safety_mode"}}}},
-              {"id", 1}}
-              .dump(),
-          set_.timeout_s);
+      rtde_ = JsonLink::connect(host_, rtde_port_, set_.timeout_s, Framing::kSofFrames);
+      rtde_.send(aubo::subscription(kStateChannel, kStateRate_hz), set_.timeout_s);
       if (!next_frame(set_.timeout_s))
         throw LinkError("no state frame within " + RpcChannel::seconds(set_.timeout_s));
     } catch (const LinkError& e) {
@@ -149,8 +150,7 @@ class AuboDriver : public RobotDriver {
 
   JointVector joint_positions() override {
     try {
-      return aubo::joint_vector(rpc_.call("rob1.RobotState.getJointPositions", json::array()),
-                                "getJointPositions");
+      return aubo::joint_vector(call("RobotState.getJointPositions", json::array()), "getJointPositions");
     } catch (const std::exception& e) {
       throw RobotError(describe() + ": cannot read the joint positions: " + e.what());
     }
@@ -162,10 +162,13 @@ class AuboDriver : public RobotDriver {
     auto add = [&](const std::string& method, const json& params) {
       out.push_back({{"jsonrpc", "2.0"}, {"method", method}, {"params", params}, {"id", ++id}});
     };
-    add("login", json::array({set_.user, "***"}));
-    for (const auto& [m, p] : load_requests(t, set_.speed_fraction)) add(m, p);
-    add("rob1.MotionControl.pathBufferValid", json::array({kBuffer}));
-    add("rob1.MotionControl.movePathBuffer", json::array({kBuffer}));
+    add(kLogin, json::array({set_.user, "***"}));
+    add("getRobotNames", json::array());
+    const std::string r = std::string(kDefaultRobot) + ".";
+    for (const auto& [m, p] : load_requests(t, set_.speed_fraction, max_acceleration_, max_velocity_))
+      add(r + m, p);
+    add(r + "MotionControl.pathBufferValid", json::array({kBuffer}));
+    add(r + "MotionControl.movePathBuffer", json::array({kBuffer}));
     json j;
     j["robot"] = describe();
     j["samples"] = t.q.size();
@@ -210,19 +213,18 @@ class AuboDriver : public RobotDriver {
       throw RobotError(describe() + b);
     }
     try {
-      try {
-        rpc_.call("rob1.MotionControl.pathBufferFree", json::array({kBuffer}));
-        log.exchanges.push_back("pathBufferFree");
-      } catch (const aubo::Refused&) {  // no buffer of that name yet
-      }
-      for (const auto& [method, params] : load_requests(t, set_.speed_fraction)) {
-        rpc_.call(method, params);
+      const json freed = call("MotionControl.pathBufferFree", json::array({kBuffer}));
+      if (freed != kNoBuffer) aubo::expect_success(freed, "pathBufferFree");
+      log.exchanges.push_back("pathBufferFree");
+      for (const auto& [method, params] :
+           load_requests(t, set_.speed_fraction, max_acceleration_, max_velocity_)) {
+        aubo::expect_success(call(method, params), method);
         log.exchanges.push_back(method.substr(method.rfind('.') + 1));
       }
       log.samples_sent = t.q.size();
       // The controller checks the path (limits, timing) before it may run.
       const double t_valid = host_seconds();
-      while (!rpc_.call("rob1.MotionControl.pathBufferValid", json::array({kBuffer})).get<bool>()) {
+      while (!call("MotionControl.pathBufferValid", json::array({kBuffer})).get<bool>()) {
         if (host_seconds() - t_valid > set_.timeout_s)
           throw aubo::Refused("the controller did not accept the path within " +
                               RpcChannel::seconds(set_.timeout_s));
@@ -244,13 +246,14 @@ class AuboDriver : public RobotDriver {
     // Run it, watching every state frame.
     const double t0 = host_seconds();
     const double budget = t.duration_s() / set_.speed_fraction + 2 * set_.timeout_s + 2.0;
-    int exec_id = -1;
     try {
-      exec_id = rpc_.call("rob1.MotionControl.movePathBuffer", json::array({kBuffer})).get<int>();
+      aubo::expect_success(call("MotionControl.movePathBuffer", json::array({kBuffer})), "movePathBuffer");
       log.exchanges.push_back("movePathBuffer");
     } catch (const std::exception& e) {
       abort_motion(std::string("movePathBuffer failed: ") + e.what());
     }
+    // The controller's motion id: -1 until the path starts, the path's id while it runs, then another.
+    int exec_id = -1;
     // Every state frame is kept, and shown to `on_state`.
     auto record = [&](double now) {
       JointState js;
@@ -283,11 +286,19 @@ class AuboDriver : public RobotDriver {
         last_poll = now;
         int id = 0;
         try {
-          id = rpc_.call("rob1.MotionControl.getExecId", json::array()).get<int>();
+          id = call("MotionControl.getExecId", json::array()).get<int>();
         } catch (const std::exception& e) {
           abort_motion(std::string("the command connection failed: ") + e.what());
         }
-        if (id != exec_id) break;
+        if (exec_id < 0 && id >= 0) exec_id = id;  // it started
+        if (exec_id >= 0 && id != exec_id) break;  // it ended
+        if (exec_id < 0 && now - t0 > set_.timeout_s) {
+          // Never seen running: done if the arm already stands at the path's end, else it did not start.
+          if ((frame_.q - t.q.back()).cwiseAbs().maxCoeff() <= set_.start_tolerance_rad &&
+              frame_.qd.cwiseAbs().maxCoeff() < kHaltedVelocity)
+            break;
+          abort_motion("the controller did not start the path within " + RpcChannel::seconds(set_.timeout_s));
+        }
       }
     }
     log.wall_s = host_seconds() - t0;
@@ -317,9 +328,19 @@ class AuboDriver : public RobotDriver {
     }
   }
 
+  /// Opens the command connection, logs in and learns the robot's name (the prefix of its methods).
   void login() {
     rpc_.open(host_, rpc_port_);
-    rpc_.call("login", json::array({set_.user, set_.password}));
+    rpc_.call(kLogin, json::array({set_.user, set_.password}));
+    const json names = rpc_.call("getRobotNames", json::array());
+    if (!names.is_array() || names.empty() || !names[0].is_string() || names[0].get<std::string>().empty())
+      throw LinkError("getRobotNames answered " + names.dump().substr(0, 80) + ", not a robot's name");
+    robot_name_ = names[0].get<std::string>();
+  }
+
+  /// A method of the robot (`MotionControl.stopJoint` is sent as `rob1.MotionControl.stopJoint`).
+  json call(const std::string& method, const json& params, double timeout_s = -1) {
+    return rpc_.call(robot_name_ + "." + method, params, timeout_s);
   }
 
   /// Reads the next state frame into frame_ (false: none within the wait). Throws LinkError.
@@ -341,7 +362,7 @@ class AuboDriver : public RobotDriver {
 
   void free_buffer() {
     try {
-      if (rpc_.is_open()) rpc_.call("rob1.MotionControl.pathBufferFree", json::array({kBuffer}), 0.5);
+      if (rpc_.is_open()) call("MotionControl.pathBufferFree", json::array({kBuffer}), 0.5);
     } catch (...) {  // best effort: the buffer is freed at the next run anyway
     }
   }
@@ -356,7 +377,7 @@ class AuboDriver : public RobotDriver {
           rpc_.close();
           login();
         }
-        rpc_.call("rob1.MotionControl.stopJoint", json::array({kStopAcceleration}));
+        aubo::expect_success(call("MotionControl.stopJoint", json::array({kStopAcceleration})), "stopJoint");
         sent = true;
       } catch (const std::exception& e) {
         stop_note = e.what();
@@ -389,7 +410,7 @@ class AuboDriver : public RobotDriver {
         }
       } else if (!rtde_.is_open() || host_seconds() - last_frame > kSilentStream_s) {
         try {
-          if (rpc_.call("rob1.MotionControl.getExecId", json::array()).get<int>() < 0) {
+          if (call("MotionControl.getExecId", json::array()).get<int>() < 0) {
             halted = "the controller reports no motion";
             break;
           }
@@ -406,6 +427,9 @@ class AuboDriver : public RobotDriver {
   int rpc_port_, rtde_port_;
   RobotDriverSetting set_;
   RpcChannel rpc_;
+  JointVector max_acceleration_,
+      max_velocity_;  // [rad/s^2], [rad/s]: the controller checks the path with them
+  std::string robot_name_ = kDefaultRobot;
   JsonLink rtde_;
   aubo::StateFrame frame_;
 };

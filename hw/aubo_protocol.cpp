@@ -4,16 +4,21 @@ namespace weldtwin::aubo {
 
 using nlohmann::json;
 
-namespace {
-
-/// A mode field of a state frame: a string, or a LinkError (a frame without it is malformed).
-std::string mode_field(const json& frame, const char* key) {
-  const auto it = frame.find(key);
-  if (it == frame.end() || !it->is_string()) throw LinkError(std::string("malformed state frame: no ") + key);
-  return it->get<std::string>();
+const std::vector<std::string>& state_segments() {
+  static const std::vector<std::string> s = {"R1_actual_q", "R1_actual_qd", "R1_robot_mode",
+                                             "R1_safety_mode"};
+  return s;
 }
 
-}  // namespace
+std::string subscription(int channel, double frequency_hz) {
+  const json recipe = {{"chanel", channel},  // the vendor's spelling
+                       {"frequency", frequency_hz},
+                       {"segments", state_segments()},
+                       {"to_server", false},
+                       {"trigger", 0}};
+  const std::vector<std::uint8_t> bytes = json::to_msgpack(json::array({kSubscribeIndex, recipe}));
+  return std::string(bytes.begin(), bytes.end());
+}
 
 JointVector joint_vector(const json& a, const std::string& what) {
   if (!a.is_array() || a.size() != 6) throw LinkError(what + " is not six numbers");
@@ -39,18 +44,32 @@ std::optional<json> parse_reply(const std::string& text, int id, const std::stri
   return result == reply.end() ? json() : *result;
 }
 
-bool parse_state_frame(const std::string& text, StateFrame& frame) {
-  const json f = json::parse(text, nullptr, false);
-  if (f.is_discarded() || !f.is_object()) throw LinkError("malformed state frame");
-  if (f.contains("id")) {  // the subscription's answer
-    if (f.contains("error")) throw LinkError("subscription refused: " + f["error"].dump());
+void expect_success(const json& result, const std::string& method) {
+  if (!result.is_number_integer()) throw LinkError(method + " answered " + result.dump() + ", not a code");
+  if (result.get<long long>() != 0)
+    throw Refused(method + " refused: error code " + std::to_string(result.get<long long>()));
+}
+
+bool parse_state_frame(const std::string& payload, StateFrame& frame) {
+  const json f = json::from_msgpack(payload, true, false);
+  if (f.is_discarded() || !f.is_array() || f.empty() || !f[0].is_number_integer())
+    throw LinkError("malformed state frame (not a MessagePack array led by its channel)");
+  if (f[0] == kSubscribeIndex) {  // the subscription's answer
+    if (f.size() < 2 || !f[1].is_number_integer() || f[1].get<long long>() < 0)
+      throw LinkError("subscription refused: " +
+                      f.dump(-1, ' ', false, json::error_handler_t::replace).substr(0, 120));
     return false;
   }
+  if (f.size() != 1 + state_segments().size())
+    throw LinkError("malformed state frame: " + std::to_string(f.size() - 1) + " values for " +
+                    std::to_string(state_segments().size()) + " segments");
   StateFrame next;
-  next.q = joint_vector(f.value("R1_actual_q", json()), "R1_actual_q");
-  next.qd = joint_vector(f.value("R1_actual_qd", json()), "R1_actual_qd");
-  next.robot_mode = mode_field(f, "R1_robot_mode");
-  next.safety_mode = mode_field(f, "R1_safety_mode");
+  next.q = joint_vector(f[1], "R1_actual_q");
+  next.qd = joint_vector(f[2], "R1_actual_qd");
+  if (!f[3].is_string()) throw LinkError("malformed state frame: R1_robot_mode is not a name");
+  if (!f[4].is_string()) throw LinkError("malformed state frame: R1_safety_mode is not a name");
+  next.robot_mode = f[3].get<std::string>();
+  next.safety_mode = f[4].get<std::string>();
   frame = std::move(next);
   return true;
 }

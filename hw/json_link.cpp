@@ -12,6 +12,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <stdexcept>
 
 namespace weldtwin {
 namespace {
@@ -74,9 +75,46 @@ bool JsonFramer::next(std::string& object) {
   return false;
 }
 
+void SofFramer::feed(const char* data, size_t n) {
+  if (start_ > (1u << 16)) {  // keep the buffer compact
+    buf_.erase(0, start_);
+    start_ = 0;
+  }
+  buf_.append(data, n);
+}
+
+bool SofFramer::next(std::string& payload, unsigned char* version) {
+  const size_t sof = buf_.find("SOF", start_);
+  if (sof == std::string::npos) {  // no frame begins here: keep only what may be the start of one
+    start_ = buf_.size() - std::min<size_t>(2, buf_.size() - start_);
+    return false;
+  }
+  start_ = sof;
+  if (buf_.size() - start_ < kHeaderBytes) return false;
+  const auto byte = [&](size_t k) { return static_cast<unsigned char>(buf_[start_ + k]); };
+  const size_t length = (size_t{byte(4)} << 8) | byte(5);
+  if (buf_.size() - start_ < kHeaderBytes + length) return false;
+  if (version) *version = byte(3);
+  payload.assign(buf_, start_ + kHeaderBytes, length);
+  start_ += kHeaderBytes + length;
+  return true;
+}
+
+std::string sof_frame(const std::string& payload, unsigned char version) {
+  if (payload.size() > SofFramer::kMaxPayloadBytes)
+    throw std::length_error("a state-service message of " + std::to_string(payload.size()) +
+                            " bytes (a SOF frame holds at most 65535)");
+  std::string f = "SOF";
+  f += static_cast<char>(version);
+  f += static_cast<char>(payload.size() >> 8);
+  f += static_cast<char>(payload.size() & 0xff);
+  return f + payload;
+}
+
 // --- connection ---
 
-JsonLink::JsonLink(JsonLink&& o) noexcept : fd_(o.fd_), framer_(std::move(o.framer_)) {
+JsonLink::JsonLink(JsonLink&& o) noexcept
+    : fd_(o.fd_), framing_(o.framing_), json_(std::move(o.json_)), sof_(std::move(o.sof_)) {
   o.fd_ = -1;
 }
 
@@ -84,7 +122,9 @@ JsonLink& JsonLink::operator=(JsonLink&& o) noexcept {
   if (this != &o) {
     close();
     fd_ = o.fd_;
-    framer_ = std::move(o.framer_);
+    framing_ = o.framing_;
+    json_ = std::move(o.json_);
+    sof_ = std::move(o.sof_);
     o.fd_ = -1;
   }
   return *this;
@@ -95,7 +135,7 @@ void JsonLink::close() {
   fd_ = -1;
 }
 
-JsonLink JsonLink::connect(const std::string& host, int port, double timeout_s) {
+JsonLink JsonLink::connect(const std::string& host, int port, double timeout_s, Framing framing) {
   const std::string where = host + ":" + std::to_string(port);
   addrinfo hints{};
   hints.ai_family = AF_INET;
@@ -132,12 +172,15 @@ JsonLink JsonLink::connect(const std::string& host, int port, double timeout_s) 
   }
   const int one = 1;
   setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-  return JsonLink(fd);
+  return JsonLink(fd, framing);
 }
 
-void JsonLink::send(const std::string& text, double timeout_s) {
+void JsonLink::send(const std::string& message, double timeout_s) {
+  send_raw(framing_ == Framing::kSofFrames ? sof_frame(message, kSofVersion) : message, timeout_s);
+}
+
+void JsonLink::send_raw(const std::string& msg, double timeout_s) {
   if (fd_ < 0) throw LinkError("the connection is closed");
-  const std::string msg = text + '\n';
   const auto t0 = std::chrono::steady_clock::now();
   size_t off = 0;
   while (off < msg.size()) {
@@ -156,9 +199,13 @@ void JsonLink::send(const std::string& text, double timeout_s) {
   }
 }
 
+bool JsonLink::next_message(std::string& message) {
+  return framing_ == Framing::kSofFrames ? sof_.next(message) : json_.next(message);
+}
+
 std::optional<std::string> JsonLink::receive(double timeout_s) {
   std::string object;
-  if (framer_.next(object)) return object;
+  if (next_message(object)) return object;
   if (fd_ < 0) throw LinkError("the connection is closed");
   const auto t0 = std::chrono::steady_clock::now();
   for (;;) {
@@ -176,9 +223,12 @@ std::optional<std::string> JsonLink::receive(double timeout_s) {
       if (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR) continue;
       throw LinkError(std::string("the connection dropped: ") + std::strerror(errno));
     }
-    framer_.feed(buf, static_cast<size_t>(n));
-    if (framer_.next(object)) return object;
-    if (framer_.pending() > kMaxObjectBytes) throw LinkError("16 MB without a whole JSON object");
+    if (framing_ == Framing::kSofFrames)
+      sof_.feed(buf, static_cast<size_t>(n));
+    else
+      json_.feed(buf, static_cast<size_t>(n));
+    if (next_message(object)) return object;
+    if (json_.pending() > kMaxObjectBytes) throw LinkError("16 MB without a whole JSON object");
   }
 }
 
@@ -207,14 +257,14 @@ JsonListener::~JsonListener() {
   if (fd_ >= 0) ::close(fd_);
 }
 
-std::optional<JsonLink> JsonListener::accept(double timeout_s) {
+std::optional<JsonLink> JsonListener::accept(double timeout_s, Framing framing) {
   pollfd p{fd_, POLLIN, 0};
   if (poll(&p, 1, poll_ms(timeout_s)) <= 0) return std::nullopt;
   const int fd = ::accept4(fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
   if (fd < 0) return std::nullopt;
   const int one = 1;
   setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-  return JsonLink(fd);
+  return JsonLink(fd, framing);
 }
 
 }  // namespace weldtwin

@@ -52,6 +52,12 @@ RobotDriverSetting quick(double timeout_s = 1.0) {
   return s;
 }
 
+// The MessagePack encoding of `j` (an RTDE payload).
+std::string msgpack(const nlohmann::json& j) {
+  const std::vector<std::uint8_t> b = nlohmann::json::to_msgpack(j);
+  return std::string(b.begin(), b.end());
+}
+
 std::unique_ptr<RobotDriver> driver_for(const test::FakeAubo& fake, const RobotDriverSetting& s = quick()) {
   return make_robot_driver(fake.spec(), robot(), SimRobotInputs(), s);
 }
@@ -135,7 +141,7 @@ TEST(AuboDriver, ARefusedLoginSendsNothing) {
   EXPECT_TRUE(contains(e, "login refused")) << e;
   EXPECT_TRUE(contains(e, fake.spec().substr(7))) << e;  // names the controller
   EXPECT_EQ(fake.refused_logins(), 1);
-  EXPECT_EQ(fake.methods(), std::vector<std::string>{"login"});
+  EXPECT_EQ(fake.methods(), std::vector<std::string>{"__login__"});
   EXPECT_TRUE(fake.path().empty());
 }
 
@@ -154,7 +160,7 @@ TEST(AuboDriver, UnreachableMuteOrUnreadyControllersAreRefusedClearly) {
     auto driver = driver_for(fake, quick(0.3));
     const double t0 = host_seconds();
     const std::string e = error_of<InputError>([&] { driver->connect(); });
-    EXPECT_TRUE(contains(e, "no answer to login")) << e;
+    EXPECT_TRUE(contains(e, "no answer to __login__")) << e;
     EXPECT_LT(host_seconds() - t0, 2.0);
   }
   {  // powered off
@@ -234,8 +240,7 @@ TEST(AuboDriver, GarbageOnTheStateStreamStopsTheArmAndKeepsTheRecord) {
   // A state frame whose mode is a number: read before as an uncaught JSON type error, with the arm moving.
   test::FakeAuboSetting fs = fake_at_home(2.0);
   fs.garbage_rtde_at = 0.3;
-  fs.garbage = R"({"R1_actual_q":[0,0,1.5,0,1.5,0],"R1_actual_qd":[0,0,0,0,0,0],"R1_robot_mode":7,)"
-               R"("R1_safety_mode":"Normal"})";
+  fs.garbage = msgpack({0, {0, 0, 1.5, 0, 1.5, 0}, {0, 0, 0, 0, 0, 0}, 7, "Normal"});
   test::FakeAubo fake(fs);
   auto driver = driver_for(fake);
   driver->connect();
@@ -243,7 +248,7 @@ TEST(AuboDriver, GarbageOnTheStateStreamStopsTheArmAndKeepsTheRecord) {
     driver->execute(a_move());
     ADD_FAILURE() << "no error thrown";
   } catch (const RobotError& e) {
-    EXPECT_TRUE(contains(e.what(), "malformed state frame: no R1_robot_mode")) << e.what();
+    EXPECT_TRUE(contains(e.what(), "malformed state frame: R1_robot_mode is not a name")) << e.what();
     EXPECT_TRUE(contains(e.what(), "stop sent")) << e.what();
     // The record keeps what was seen up to the fault: states from the start to about 30 % of the path.
     ASSERT_GT(e.log().joints.size(), 10u);
@@ -273,24 +278,70 @@ TEST(AuboDriver, AControllerThatFallsSilentMidRunIsStoppedOverANewConnection) {
   EXPECT_LT(fake.progress(), 0.8);
 }
 
+TEST(SofFramer, CutsFramesWhateverTheChunksAndSkipsWhatIsNotAFrame) {
+  // Two frames (one empty, one of 300 bytes: a length above 255), garbage between them, a frame cut short.
+  const std::string big(300, 'x');
+  const std::string stream = sof_frame("ab", 1) + "\x01garbage SO" + sof_frame("", 7) + sof_frame(big, 1) +
+                             sof_frame("cut short", 1).substr(0, 9);
+  ASSERT_EQ(sof_frame("ab", 1), std::string("SOF\x01\x00\x02"
+                                            "ab",
+                                            8));  // 'S' 'O' 'F', version, big-endian length
+  for (size_t chunk : {1, 2, 5, 1000}) {
+    SofFramer f;
+    std::vector<std::string> got;
+    std::vector<int> versions;
+    for (size_t i = 0; i < stream.size(); i += chunk) {
+      f.feed(stream.data() + i, std::min(chunk, stream.size() - i));
+      std::string p;
+      unsigned char v = 0;
+      while (f.next(p, &v)) got.push_back(p), versions.push_back(v);
+    }
+    ASSERT_EQ(got.size(), 3u) << "chunk " << chunk;
+    EXPECT_EQ(got[0], "ab");
+    EXPECT_EQ(got[1], "");
+    EXPECT_EQ(got[2], big);
+    EXPECT_EQ(versions, (std::vector<int>{1, 7, 1}));
+    EXPECT_EQ(f.pending(), 9u) << "the cut frame waits for the rest";
+  }
+  SofFramer f;
+  const std::string noise(100000, 'z');
+  f.feed(noise.data(), noise.size());
+  std::string p;
+  EXPECT_FALSE(f.next(p));
+  EXPECT_LE(f.pending(), 2u) << "bytes that cannot begin a frame are not kept";
+  EXPECT_THROW(sof_frame(std::string(65536, 'x'), 1), std::length_error);
+}
+
 TEST(AuboProtocol, MalformedMessagesAreLinkErrorsAndRefusalsAreRefused) {
   aubo::StateFrame f;
-  EXPECT_TRUE(aubo::parse_state_frame(
-      R"({"R1_actual_q":[1,2,3,4,5,6],"R1_actual_qd":[0,0,0,0,0,0],"R1_robot_mode":"Running",)"
-      R"("R1_safety_mode":"Normal"})",
-      f));
+  EXPECT_TRUE(
+      aubo::parse_state_frame(msgpack({0, {1, 2, 3, 4, 5, 6}, {0, 0, 0, 0, 0, 0}, "Running", "Normal"}), f));
   EXPECT_EQ(f.q[5], 6.0);
-  EXPECT_FALSE(aubo::parse_state_frame(R"({"jsonrpc":"2.0","result":0,"id":1})", f));  // the subscription
-  for (const char* bad : {R"({"R1_actual_q":[1,2,3,4,5],"R1_actual_qd":[0,0,0,0,0,0]})",
-                          R"({"R1_actual_q":[1,2,3,4,5,"6"],"R1_actual_qd":[0,0,0,0,0,0]})",
-                          R"({"R1_actual_q":[1,2,3,4,5,6],"R1_actual_qd":[0,0,0,0,0,0],"R1_robot_mode":[]})",
-                          R"({"a":1])", "[1,2]"})
-    EXPECT_THROW(aubo::parse_state_frame(bad, f), LinkError) << bad;
+  EXPECT_EQ(f.robot_mode, "Running");
+  EXPECT_FALSE(aubo::parse_state_frame(msgpack({100, 0}), f));  // the subscription's answer
+  for (const std::string& bad :
+       {msgpack({0, {1, 2, 3, 4, 5}, {0, 0, 0, 0, 0, 0}, "Running", "Normal"}),
+        msgpack({0, {1, 2, 3, 4, 5, "6"}, {0, 0, 0, 0, 0, 0}, "Running", "Normal"}),
+        msgpack({0, {1, 2, 3, 4, 5, 6}, {0, 0, 0, 0, 0, 0}, nlohmann::json::array(), "Normal"}),
+        msgpack({0, {1, 2, 3, 4, 5, 6}, {0, 0, 0, 0, 0, 0}, "Running"}),  // a segment missing
+        msgpack({100, -1}),                                               // the subscription refused
+        msgpack({{"R1_actual_q", {1, 2, 3, 4, 5, 6}}}),                   // an object, not the frame
+        std::string("\x95\x00"), std::string("{\"a\":1}"), std::string()})
+    EXPECT_THROW(aubo::parse_state_frame(bad, f), LinkError) << nlohmann::json(bad.substr(0, 20)).dump();
   EXPECT_EQ(f.q[5], 6.0) << "a malformed frame must leave the last good one";
+  // The subscription, decoded: the vendor's RTDE index and recipe members (and its spelling of "chanel").
+  const nlohmann::json sub = nlohmann::json::from_msgpack(aubo::subscription(0, 200.0));
+  EXPECT_EQ(sub, nlohmann::json::parse(R"([100, {"chanel": 0, "frequency": 200.0, "segments": ["R1_actual_q",
+      "R1_actual_qd", "R1_robot_mode", "R1_safety_mode"], "to_server": false, "trigger": 0}])"));
   EXPECT_FALSE(aubo::parse_reply(R"({"jsonrpc":"2.0","result":5,"id":2})", 1, "m"));  // another request's
   EXPECT_EQ(aubo::parse_reply(R"({"jsonrpc":"2.0","result":5,"id":1})", 1, "m")->get<int>(), 5);
   EXPECT_THROW(aubo::parse_reply(R"({"error":{"code":-1,"message":7},"id":1})", 1, "m"), aubo::Refused);
   EXPECT_THROW(aubo::parse_reply("{\"id\":1", 1, "m"), LinkError);
+  // Result codes: 0 is success, any other code a refusal naming it.
+  EXPECT_NO_THROW(aubo::expect_success(0, "m"));
+  EXPECT_TRUE(contains(error_of<aubo::Refused>([] { aubo::expect_success(-5, "pathBufferFree"); }),
+                       "pathBufferFree refused: error code -5"));
+  EXPECT_THROW(aubo::expect_success("0", "m"), LinkError);
 }
 
 TEST(AuboDriver, ADryRunListsTheRequestsWithoutConnecting) {
@@ -298,6 +349,7 @@ TEST(AuboDriver, ADryRunListsTheRequestsWithoutConnecting) {
   const JointTrajectory t = a_move();
   const std::string text = driver->dry_run(t);
   EXPECT_TRUE(contains(text, "\"method\": \"rob1.MotionControl.movePathBuffer\"")) << text.substr(0, 400);
+  EXPECT_TRUE(contains(text, "\"method\": \"__login__\"")) << text.substr(0, 400);
   EXPECT_TRUE(contains(text, "\"samples\": " + std::to_string(t.q.size())));
   EXPECT_FALSE(contains(text, "123456"));  // no password in a file
 }

@@ -41,6 +41,10 @@ std::vector<std::string> FakeAubo::methods() const {
   std::lock_guard<std::mutex> l(m_);
   return methods_;
 }
+std::vector<std::string> FakeAubo::requests() const {
+  std::lock_guard<std::mutex> l(m_);
+  return requests_;
+}
 std::vector<std::string> FakeAubo::protocol_errors() const {
   std::lock_guard<std::mutex> l(m_);
   return errors_;
@@ -101,7 +105,7 @@ void FakeAubo::advance(double now_s) {
   }
 }
 
-std::string FakeAubo::handle(const std::string& text, bool& logged_in, bool& drop) {
+std::string FakeAubo::handle(const std::string& text, bool& logged_in) {
   std::lock_guard<std::mutex> l(m_);
   advance(host_seconds());
   const json req = json::parse(text, nullptr, false);
@@ -120,8 +124,9 @@ std::string FakeAubo::handle(const std::string& text, bool& logged_in, bool& dro
   const std::string method = req["method"];
   const json p = req.value("params", json::array());
   methods_.push_back(method);
+  requests_.push_back(text);
   if (!p.is_array()) return fail(-32602, method + ": params are not an array", true);
-  if (method == "login") {
+  if (method == "__login__") {
     if (p.size() == 2 && p[0] == set_.user && p[1] == set_.password) {
       logged_in = true;
       return ok(0);
@@ -130,11 +135,7 @@ std::string FakeAubo::handle(const std::string& text, bool& logged_in, bool& dro
     return fail(-32001, "login refused: wrong user or password", false);
   }
   if (!logged_in) return fail(-32002, method + " before login", true);
-  if (method == "logout") {
-    logged_in = false;
-    drop = true;
-    return ok(0);
-  }
+  if (method == "getRobotNames") return ok(json::array({"rob1"}));
   if (method == "rob1.RobotState.getRobotModeType") return ok(set_.robot_mode);
   if (method == "rob1.RobotState.getSafetyModeType") return ok(safety_);
   if (method == "rob1.RobotState.getJointPositions") return ok(std::vector<double>(q_.data(), q_.data() + 6));
@@ -153,10 +154,11 @@ std::string FakeAubo::handle(const std::string& text, bool& logged_in, bool& dro
   }
   if (method.rfind("rob1.MotionControl.pathBuffer", 0) == 0 ||
       method == "rob1.MotionControl.movePathBuffer") {
-    if (p.empty() || p[0] != "weldtwin") return fail(-32602, method + ": unknown buffer name", true);
+    if (p.empty() || !p[0].is_string()) return fail(-32602, method + ": no buffer name", true);
     const std::string m = method.substr(method.rfind('.') + 1);
+    const bool known = allocated_ && p[0] == buffer_name_;
     if (m == "pathBufferFree") {
-      if (!allocated_) return fail(-1, "no such buffer", false);
+      if (!known) return ok(-5);  // the vendor's code for a buffer that does not exist
       allocated_ = evaluated_ = false;
       return ok(0);
     }
@@ -165,12 +167,14 @@ std::string FakeAubo::handle(const std::string& text, bool& logged_in, bool& dro
       if (p.size() != 3 || p[1] != 2 || !p[2].is_number_integer() || p[2].get<int>() <= 0)
         return fail(-32602, "pathBufferAlloc: want [name, 2, size > 0]", true);
       buffer_.clear();
+      buffer_name_ = p[0];
       buffer_size_ = p[2];
       allocated_ = true;
       evaluated_ = false;
       return ok(0);
     }
-    if (!allocated_) return fail(-1, m + " before pathBufferAlloc", true);
+    if (m == "pathBufferValid" && !known) return ok(false);  // as the vendor's example: not valid
+    if (!known) return fail(-1, m + ": no buffer of that name (before pathBufferAlloc?)", true);
     if (m == "pathBufferAppend") {
       if (p.size() != 2 || !p[1].is_array())
         return fail(-32602, "pathBufferAppend: want [name, points]", true);
@@ -190,9 +194,16 @@ std::string FakeAubo::handle(const std::string& text, bool& logged_in, bool& dro
       return ok(0);
     }
     if (m == "pathBufferEval") {
-      if (buffer_.size() != buffer_size_) return fail(-1, "pathBufferEval: the buffer is not full", true);
-      if (p.size() != 4 || !p[3].is_number() || !(p[3].get<double>() > 0))
-        return fail(-32602, "pathBufferEval: want [name, a, v, interval > 0]", true);
+      if (buffer_.empty()) return fail(-1, "pathBufferEval: the buffer is empty", true);
+      auto six_positive = [](const json& v) {
+        if (!v.is_array() || v.size() != 6) return false;
+        for (const json& x : v)
+          if (!x.is_number() || !(x.get<double>() > 0) || !std::isfinite(x.get<double>())) return false;
+        return true;
+      };
+      if (p.size() != 4 || !six_positive(p[1]) || !six_positive(p[2]) || !p[3].is_number() ||
+          !(p[3].get<double>() > 0))
+        return fail(-32602, "pathBufferEval: want [name, 6 accelerations, 6 velocities, interval > 0]", true);
       dt_ = p[3];
       evaluated_ = true;
       return ok(0);
@@ -207,7 +218,8 @@ std::string FakeAubo::handle(const std::string& text, bool& logged_in, bool& dro
       moving_ = true;
       move_start_s_ = host_seconds();
       progress_ = 0.0;
-      return ok(++exec_id_);
+      ++exec_id_;
+      return ok(0);
     }
   }
   return fail(-32601, "method not found: " + method, true);
@@ -233,47 +245,62 @@ void FakeAubo::serve_rpc() {
         }
         const std::optional<std::string> text = client->receive(0.01);
         if (!text || set_.mute || stalled) continue;
-        bool drop = false;
-        const std::string answer = handle(*text, logged_in, drop);
+        const std::string answer = handle(*text, logged_in);
         if (garbage) {
           std::lock_guard<std::mutex> l(m_);
           garbage_rpc_now_ = false;
         }
-        client->send(garbage ? set_.garbage : answer);
-        if (drop) break;
+        if (garbage)
+          client->send_raw(set_.garbage);
+        else
+          client->send(answer);
       }
     } catch (const LinkError&) {  // the client left
     }
   }
 }
 
+namespace {
+
+std::string msgpack(const json& j) {
+  const std::vector<std::uint8_t> b = json::to_msgpack(j);
+  return std::string(b.begin(), b.end());
+}
+
+}  // namespace
+
+// RTDE as the vendor's codec frames it: SOF frames of MessagePack. The subscription must be
+// [100, {"chanel": c, "frequency": f, "segments": [...], "to_server": false, "trigger": 0}] naming the four
+// segments this fake streams, in their order; its answer is [100, c]; each frame [c, q, qd, mode, safety].
 void FakeAubo::serve_rtde() {
+  const json segments = {"R1_actual_q", "R1_actual_qd", "R1_robot_mode", "R1_safety_mode"};
   while (!quit_) {
-    std::optional<JsonLink> client = rtde_.accept(0.05);
+    std::optional<JsonLink> client = rtde_.accept(0.05, Framing::kSofFrames);
     if (!client) continue;
     bool stalled = false;
     try {
       // The subscription.
-      std::optional<std::string> text;
-      for (int k = 0; k < 100 && !text && !quit_; ++k) text = client->receive(0.01);
-      if (!text || set_.mute) {
+      std::optional<std::string> payload;
+      for (int k = 0; k < 100 && !payload && !quit_; ++k) payload = client->receive(0.01);
+      if (!payload || set_.mute) {
         while (!quit_ && set_.mute) client->receive(0.05);
         continue;
       }
-      const json sub = json::parse(*text, nullptr, false);
-      const bool good =
-          !sub.is_discarded() && sub.value("method", "") == "subscribe" && sub.contains("params") &&
-          sub["params"].value("fields", json::array()).dump().find("R1_actual_q") != std::string::npos;
+      const json sub = json::from_msgpack(*payload, true, false);
+      const json recipe = !sub.is_discarded() && sub.is_array() && sub.size() == 2 ? sub[1] : json();
+      const bool good = sub.is_array() && sub.size() == 2 && sub[0] == 100 && recipe.is_object() &&
+                        recipe.size() == 5 && recipe.value("segments", json()) == segments &&
+                        recipe.value("chanel", json()).is_number_integer() &&
+                        recipe.value("frequency", json()).is_number() &&
+                        recipe.value("to_server", true) == false && recipe.value("trigger", json()) == 0;
       if (!good) {
         std::lock_guard<std::mutex> l(m_);
-        errors_.push_back("bad RTDE subscription: " + text->substr(0, 80));
-        client->send(json{{"jsonrpc", "2.0"},
-                          {"error", {{"code", -32602}, {"message", "bad subscription"}}},
-                          {"id", sub.is_discarded() ? json(nullptr) : sub.value("id", json(nullptr))}}
-                         .dump());
+        errors_.push_back("bad RTDE subscription: " + payload->substr(0, 80));
+        client->send(msgpack(json::array({100, -1})));
         continue;
       }
-      client->send(json{{"jsonrpc", "2.0"}, {"result", 0}, {"id", sub["id"]}}.dump());
+      const int channel = recipe["chanel"];
+      client->send(msgpack(json::array({100, channel})));
       for (double next = host_seconds(); !quit_; next += 0.005) {
         std::this_thread::sleep_for(std::chrono::duration<double>(std::max(0.0, next - host_seconds())));
         json frame;
@@ -291,17 +318,15 @@ void FakeAubo::serve_rtde() {
           }
           garbage = garbage_rtde_now_;
           garbage_rtde_now_ = false;
-          frame = {{"timestamp", host_seconds()},
-                   {"R1_actual_q", std::vector<double>(q_.data(), q_.data() + 6)},
-                   {"R1_actual_qd", std::vector<double>(qd_.data(), qd_.data() + 6)},
-                   {"R1_robot_mode", set_.robot_mode},
-                   {"R1_safety_mode", safety_}};
+          frame = json::array({channel, std::vector<double>(q_.data(), q_.data() + 6),
+                               std::vector<double>(qd_.data(), qd_.data() + 6), set_.robot_mode, safety_});
         }
         if (stalled) {  // open and silent until the client leaves
           client->receive(0.05);
           continue;
         }
-        client->send(garbage ? set_.garbage : frame.dump(), 0.5);
+        // Garbage goes out framed, as a frame whose payload was corrupted.
+        client->send(garbage ? set_.garbage.substr(0, SofFramer::kMaxPayloadBytes) : msgpack(frame), 0.5);
       }
     } catch (const LinkError&) {  // the client left
     }

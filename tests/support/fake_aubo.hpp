@@ -1,5 +1,6 @@
 // A fake Aubo ARCS controller on loopback for the tests: the JSON-RPC command service and the RTDE state
-// stream of hw/aubo_driver.cpp's protocol, an arm that follows a loaded path buffer in (scaled) time, and
+// stream as docs/hardware.md describes them (the vendor's method names, parameters and result codes; SOF
+// frames of MessagePack on the state service), an arm that follows a loaded path buffer in (scaled) time, and
 // faults on demand. It checks the protocol as the controller would (login first, a path allocated before
 // it is appended to, evaluated and valid before it is run, six finite joints per waypoint, the arm at the
 // path's start) and records what it was sent.
@@ -48,6 +49,7 @@ class FakeAubo {
   double path_dt() const;
   double speed_fraction() const;
   std::vector<std::string> methods() const;          ///< every method called, in order
+  std::vector<std::string> requests() const;         ///< every request's text, in order
   std::vector<std::string> protocol_errors() const;  ///< requests a controller would refuse
   int stops() const;
   int refused_logins() const;
@@ -58,7 +60,7 @@ class FakeAubo {
  private:
   void serve_rpc();
   void serve_rtde();
-  std::string handle(const std::string& request, bool& logged_in, bool& drop);
+  std::string handle(const std::string& request, bool& logged_in);
   void advance(double now_s);
 
   FakeAuboSetting set_;
@@ -71,6 +73,7 @@ class FakeAubo {
   JointVector q_, qd_;
   std::string safety_ = "Normal";
   std::vector<JointVector> buffer_;
+  std::string buffer_name_;
   size_t buffer_size_ = 0;
   bool allocated_ = false, evaluated_ = false;
   double dt_ = 0.0, speed_ = 1.0;
@@ -80,7 +83,7 @@ class FakeAubo {
   bool drop_rpc_now_ = false, drop_rtde_now_ = false;
   bool mute_rpc_now_ = false, mute_rtde_now_ = false;        // stall the current connection
   bool garbage_rpc_now_ = false, garbage_rtde_now_ = false;  // the next message is garbage
-  std::vector<std::string> methods_, errors_;
+  std::vector<std::string> methods_, requests_, errors_;
 };
 
 }  // namespace weldtwin::test
