@@ -1,11 +1,12 @@
 // Writes small seed bags for fuzz_ros_bag with weldtwin's own writers (as `weldtwin scan --rosbag1/2` records
 // a twin sweep): three LiDAR turns of 16 beams and joint states, as a ROS 1 bag and ROS 2 sqlite3 and MCAP
-// bags, each prefixed with the harness's format byte.
+// bags, each prefixed with the harness's format byte; and the same with the arm's poses on /tf instead.
 //   seed_bags OUT_DIR
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 
+#include "core/cell_spec.hpp"
 #include "hw/ros_bags.hpp"
 
 int main(int argc, char** argv) {
@@ -33,14 +34,21 @@ int main(int argc, char** argv) {
     std::ofstream o(out / name, std::ios::binary);
     o << format << std::string(std::istreambuf_iterator<char>(in), {});
   };
-  weldtwin::write_ros1_bag((tmp / "seed.bag").string(), log);
-  put(tmp / "seed.bag", "twin.bag", '\0');
-  weldtwin::write_ros2_bag((tmp / "ros2").string(), log);
-  for (const auto& e : fs::directory_iterator(tmp / "ros2"))
-    if (e.path().extension() == ".db3") put(e.path(), "twin.db3", '\1');
-  weldtwin::write_ros2_bag((tmp / "mcap").string(), log, 1.7e9, weldtwin::Ros2Storage::kMcap);
-  for (const auto& e : fs::directory_iterator(tmp / "mcap"))
-    if (e.path().extension() == ".mcap") put(e.path(), "twin.mcap", '\2');
+  const weldtwin::RobotModel robot = weldtwin::RobotModel::load(
+      weldtwin::CellSpec::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml").robot_urdf);
+  for (const weldtwin::RobotModel* tf : {static_cast<const weldtwin::RobotModel*>(nullptr), &robot}) {
+    const std::string name = tf ? "twin_tf" : "twin";
+    weldtwin::write_ros1_bag((tmp / "seed.bag").string(), log, 1.7e9, tf);
+    put(tmp / "seed.bag", (name + ".bag").c_str(), '\0');
+    fs::remove_all(tmp / "ros2");
+    fs::remove_all(tmp / "mcap");
+    weldtwin::write_ros2_bag((tmp / "ros2").string(), log, 1.7e9, weldtwin::Ros2Storage::kSqlite3, tf);
+    for (const auto& e : fs::directory_iterator(tmp / "ros2"))
+      if (e.path().extension() == ".db3") put(e.path(), (name + ".db3").c_str(), '\1');
+    weldtwin::write_ros2_bag((tmp / "mcap").string(), log, 1.7e9, weldtwin::Ros2Storage::kMcap, tf);
+    for (const auto& e : fs::directory_iterator(tmp / "mcap"))
+      if (e.path().extension() == ".mcap") put(e.path(), (name + ".mcap").c_str(), '\2');
+  }
   fs::remove_all(tmp);
   return 0;
 }

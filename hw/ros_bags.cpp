@@ -7,9 +7,11 @@
 #include <sensor_msgs/JointState.h>
 #include <sensor_msgs/LaserScan.h>
 #include <sqlite3.h>
+#include <tf2_msgs/TFMessage.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -20,11 +22,13 @@
 #include "core/error.hpp"
 #include "core/files.hpp"
 #include "hw/mcap.hpp"
+#include "hw/tf_joints.hpp"
 
 namespace weldtwin {
 namespace {
 
 constexpr double kTwoPi = 2.0 * kPi;
+constexpr double kMaxBeamInterval_s = 1.0;  // a LaserScan's time_increment must be shorter
 
 // The two messages, whatever the bag: what a ScanLog needs of them.
 struct ScanMsg {
@@ -42,7 +46,9 @@ struct JointMsg {
 ScanLog to_scan_log(std::vector<ScanMsg> scans, std::vector<JointMsg> joints, const RobotModel& robot,
                     const std::string& source, const std::string& file) {
   if (scans.empty()) throw input_error(file, "no sensor_msgs/LaserScan messages");
-  if (joints.empty()) throw input_error(file, "no sensor_msgs/JointState messages");
+  if (joints.empty())
+    throw input_error(file,
+                      "no arm poses: no sensor_msgs/JointState messages and no tf2_msgs/TFMessage on /tf");
   auto by_stamp = [](const auto& a, const auto& b) { return a.stamp_ns < b.stamp_ns; };
   std::stable_sort(scans.begin(), scans.end(), by_stamp);
   std::stable_sort(joints.begin(), joints.end(), by_stamp);
@@ -54,6 +60,15 @@ ScanLog to_scan_log(std::vector<ScanMsg> scans, std::vector<JointMsg> joints, co
   for (const ScanMsg& m : scans) {
     if (!std::isfinite(m.angle_min) || !std::isfinite(m.angle_increment) || !std::isfinite(m.time_increment))
       throw input_error(file, "a LaserScan with a non-finite angle or time increment");
+    // A scanning LiDAR's beams follow each other by microseconds (the A2's 125 us); a second or more between
+    // two beams is not a LiDAR's recording (and its nanoseconds would overflow below).
+    if (std::abs(m.time_increment) >= kMaxBeamInterval_s) {
+      char b[160];
+      std::snprintf(b, sizeof b,
+                    "a LaserScan whose beams are %.3g s apart (time_increment): not a scanning LiDAR",
+                    static_cast<double>(m.time_increment));
+      throw input_error(file, b);
+    }
     const bool have_quality =
         m.intensities.size() == m.ranges.size() &&
         std::any_of(m.intensities.begin(), m.intensities.end(), [](float v) { return v > 0.0f; });
@@ -115,6 +130,21 @@ ScanLog to_scan_log(std::vector<ScanMsg> scans, std::vector<JointMsg> joints, co
   return log;
 }
 
+/// Joint states from /tf transforms (when a recording has no JointState topic).
+std::vector<JointMsg> joints_of_tf(const std::vector<TfTransform>& tf, const RobotModel& robot,
+                                   const std::string& file) {
+  std::vector<JointMsg> out;
+  if (tf.empty()) return out;
+  for (const StampedJoints& j : joints_from_tf(tf, robot, file)) {
+    JointMsg m;
+    m.stamp_ns = j.stamp_ns;
+    m.names = robot.joint_names();
+    m.position.assign(j.q.data(), j.q.data() + j.q.size());
+    out.push_back(std::move(m));
+  }
+  return out;
+}
+
 int64_t to_ns(double seconds) {
   return std::llround(seconds * 1e9);
 }
@@ -170,6 +200,21 @@ void from_scan_log(const ScanLog& log, double epoch_s, std::vector<ScanMsg>& sca
 ros::Time ros_time(int64_t ns) {
   ros::Time t;
   t.fromNSec(static_cast<uint64_t>(ns));
+  return t;
+}
+
+/// `t` with the transform of translation v[0..2] and rotation quaternion v[3..6] (x y z w), checked finite
+/// and unit (within 1 %, then normalised).
+TfTransform tf_transform(TfTransform t, const double v[7], const std::string& file) {
+  for (int i = 0; i < 7; ++i)
+    if (!std::isfinite(v[i])) throw input_error(file, "a /tf transform with a non-finite value");
+  const Quat q(v[6], v[3], v[4], v[5]);
+  if (std::abs(q.norm() - 1.0) > 0.01)
+    throw input_error(file, "a /tf transform whose rotation is not a unit quaternion (norm " +
+                                std::to_string(q.norm()) + ")");
+  t.T_parent_child = Iso3::Identity();
+  t.T_parent_child.linear() = q.normalized().toRotationMatrix();
+  t.T_parent_child.translation() = Vec3(v[0], v[1], v[2]);
   return t;
 }
 
@@ -261,6 +306,29 @@ void cdr_header(CdrWriter& w, int64_t ns, const std::string& frame) {
 
 constexpr const char* kLaserScanType = "sensor_msgs/msg/LaserScan";
 constexpr const char* kJointStateType = "sensor_msgs/msg/JointState";
+constexpr const char* kTfType = "tf2_msgs/msg/TFMessage";
+constexpr size_t kCdrTransformBytes = 4 + 4 + 4 + 4 + 7 * 8;  // the least a TransformStamped takes
+
+/// A TFMessage's transforms, appended to `out`.
+void cdr_tf_message(const uint8_t* data, size_t size, const std::string& file,
+                    std::vector<TfTransform>& out) {
+  CdrReader r(data, size, file);
+  const uint32_t n = r.get<uint32_t>();
+  if (n > size / kCdrTransformBytes)
+    throw input_error(
+        file, "a TFMessage of " + std::to_string(n) + " transforms in " + std::to_string(size) + " bytes");
+  for (uint32_t k = 0; k < n; ++k) {
+    TfTransform t;
+    const int32_t sec = r.get<int32_t>();
+    const uint32_t nsec = r.get<uint32_t>();
+    t.stamp_ns = static_cast<int64_t>(sec) * 1000000000 + nsec;
+    t.parent = r.str();
+    t.child = r.str();
+    double v[7];
+    for (double& x : v) x = r.get<double>();
+    out.push_back(tf_transform(t, v, file));
+  }
+}
 
 ScanMsg cdr_laser_scan(const uint8_t* data, size_t size, const std::string& file) {
   CdrReader r(data, size, file);
@@ -304,6 +372,19 @@ std::vector<uint8_t> cdr_of(const ScanMsg& m, const std::string& frame) {
   return w.bytes();
 }
 
+std::vector<uint8_t> cdr_of(const std::vector<TfTransform>& tf) {
+  CdrWriter w;
+  w.put<uint32_t>(static_cast<uint32_t>(tf.size()));
+  for (const TfTransform& t : tf) {
+    cdr_header(w, t.stamp_ns, t.parent);
+    w.str(t.child);
+    const Vec3 p = t.T_parent_child.translation();
+    const Quat q(t.T_parent_child.rotation());
+    for (const double x : {p.x(), p.y(), p.z(), q.x(), q.y(), q.z(), q.w()}) w.put<double>(x);
+  }
+  return w.bytes();
+}
+
 std::vector<uint8_t> cdr_of(const JointMsg& m) {
   CdrWriter w;
   cdr_header(w, m.stamp_ns, "");
@@ -315,9 +396,22 @@ std::vector<uint8_t> cdr_of(const JointMsg& m) {
   return w.bytes();
 }
 
+/// The transforms of a joint state's moving joints, as robot_state_publisher publishes them on /tf.
+std::vector<TfTransform> tf_of(const JointMsg& m, const RobotModel& robot) {
+  JointVector q = JointVector::Zero();
+  for (size_t k = 0; k < m.names.size(); ++k) {
+    const auto& names = robot.joint_names();
+    const auto it = std::find(names.begin(), names.end(), m.names[k]);
+    if (it == names.end()) throw std::runtime_error("the robot has no joint '" + m.names[k] + "'");
+    q[static_cast<int>(it - names.begin())] = m.position[k];
+  }
+  return tf_of_joints(m.stamp_ns, q, robot);
+}
+
 /// The ROS 2 bag's metadata.yaml, as rosbag2 writes it (its readers check storage_identifier and the files).
 void write_ros2_metadata(const std::string& dir, const std::string& storage, const std::string& file,
-                         size_t scans, size_t joints, int64_t first, int64_t last) {
+                         size_t scans, size_t joints, int64_t first, int64_t last,
+                         const std::string& arm_topic, const std::string& arm_type) {
   const size_t count = scans + joints;
   std::ofstream meta(std::filesystem::path(dir) / "metadata.yaml");
   meta << "rosbag2_bagfile_information:\n  version: 5\n  storage_identifier: " << storage
@@ -327,7 +421,7 @@ void write_ros2_metadata(const std::string& dir, const std::string& storage, con
        << "    - topic_metadata:\n        name: /scan\n        type: " << kLaserScanType
        << "\n        serialization_format: cdr\n        offered_qos_profiles: \"\"\n      message_count: "
        << scans << "\n"
-       << "    - topic_metadata:\n        name: /joint_states\n        type: " << kJointStateType
+       << "    - topic_metadata:\n        name: " << arm_topic << "\n        type: " << arm_type
        << "\n        serialization_format: cdr\n        offered_qos_profiles: \"\"\n      message_count: "
        << joints << "\n  compression_format: \"\"\n  compression_mode: \"\"\n  relative_file_paths:\n    - "
        << file << "\n  files:\n    - path: " << file
@@ -384,6 +478,7 @@ bool is_mcap(const std::string& file) {
 ScanLog read_ros2_mcap(const std::string& file, const RobotModel& robot, const BagTopics& topics) {
   const mcap::File bag = mcap::read(file);
   int scan_id = -1, joint_id = -1;
+  std::set<int> tf_ids;
   for (const auto& [id, ch] : bag.channels) {
     if (ch.message_encoding != "cdr") continue;
     if (ch.schema_name == kLaserScanType && scan_id < 0 && (topics.scan.empty() || topics.scan == ch.topic))
@@ -391,13 +486,18 @@ ScanLog read_ros2_mcap(const std::string& file, const RobotModel& robot, const B
     if (ch.schema_name == kJointStateType && joint_id < 0 &&
         (topics.joints.empty() || topics.joints == ch.topic))
       joint_id = id;
+    if (ch.schema_name == kTfType) tf_ids.insert(id);
   }
+  if (joint_id >= 0) tf_ids.clear();  // joint states, where there are any
   std::vector<ScanMsg> scans;
   std::vector<JointMsg> joints;
+  std::vector<TfTransform> tf;
   for (const mcap::Message& m : bag.messages) {
     if (m.channel == scan_id) scans.push_back(cdr_laser_scan(m.data.data(), m.data.size(), file));
     if (m.channel == joint_id) joints.push_back(cdr_joint_state(m.data.data(), m.data.size(), file));
+    if (tf_ids.count(m.channel)) cdr_tf_message(m.data.data(), m.data.size(), file, tf);
   }
+  if (joints.empty() && !scans.empty()) joints = joints_of_tf(tf, robot, file);
   return to_scan_log(std::move(scans), std::move(joints), robot, "rosbag2", file);
 }
 
@@ -425,6 +525,14 @@ class Ros1Lengths {
     const uint32_t names = count(4, "name");
     for (uint32_t k = 0; k < names; ++k) array(1, "name");
     for (const char* what : {"position", "velocity", "effort"}) array(8, what);
+  }
+  void tf_message() {
+    const uint32_t n = count(16 + 4 + 7 * 8, "transforms");  // header, child_frame_id, translation, rotation
+    for (uint32_t k = 0; k < n; ++k) {
+      header();
+      array(1, "child_frame_id");
+      skip(7 * 8);
+    }
   }
 
  private:
@@ -643,6 +751,7 @@ ScanLog read_ros1_bag(const std::string& path, const RobotModel& robot, const Ba
   check_ros1_records(path);
   std::vector<ScanMsg> scans;
   std::vector<JointMsg> joints;
+  std::vector<TfTransform> tf;
   std::string scan_topic = topics.scan, joint_topic = topics.joints;
   try {
     rosbag::Bag bag(path, rosbag::bagmode::Read);
@@ -674,6 +783,20 @@ ScanLog read_ros1_bag(const std::string& path, const RobotModel& robot, const Ba
         x.names = j->name;
         x.position = j->position;
         joints.push_back(std::move(x));
+      } else if (type == "tf2_msgs/TFMessage") {
+        Ros1Lengths(m, path).tf_message();
+        const auto t = m.instantiate<tf2_msgs::TFMessage>();
+        if (!t) continue;
+        for (const geometry_msgs::TransformStamped& ts : t->transforms) {
+          TfTransform x;
+          x.stamp_ns = static_cast<int64_t>(ts.header.stamp.toNSec());
+          x.parent = ts.header.frame_id;
+          x.child = ts.child_frame_id;
+          const auto& p = ts.transform.translation;
+          const auto& q = ts.transform.rotation;
+          const double v[7] = {p.x, p.y, p.z, q.x, q.y, q.z, q.w};
+          tf.push_back(tf_transform(x, v, path));
+        }
       }
     }
   } catch (const rosbag::BagException& e) {
@@ -681,10 +804,11 @@ ScanLog read_ros1_bag(const std::string& path, const RobotModel& robot, const Ba
   } catch (const ros::Exception& e) {
     throw input_error(path, std::string("a message that cannot be read: ") + e.what());
   }
+  if (joints.empty() && !scans.empty()) joints = joints_of_tf(tf, robot, path);
   return to_scan_log(std::move(scans), std::move(joints), robot, "rosbag1", path);
 }
 
-void write_ros1_bag(const std::string& path, const ScanLog& log, double epoch_s) {
+void write_ros1_bag(const std::string& path, const ScanLog& log, double epoch_s, const RobotModel* tf_robot) {
   std::vector<ScanMsg> scans;
   std::vector<JointMsg> joints;
   from_scan_log(log, epoch_s, scans, joints);
@@ -705,6 +829,24 @@ void write_ros1_bag(const std::string& path, const ScanLog& log, double epoch_s)
     bag.write("/scan", s.header.stamp, s);
   }
   for (const JointMsg& m : joints) {
+    if (tf_robot) {
+      tf2_msgs::TFMessage msg;
+      for (const TfTransform& t : tf_of(m, *tf_robot)) {
+        geometry_msgs::TransformStamped ts;
+        ts.header.stamp = ros_time(t.stamp_ns);
+        ts.header.frame_id = t.parent;
+        ts.child_frame_id = t.child;
+        const Vec3 p = t.T_parent_child.translation();
+        const Quat q(t.T_parent_child.rotation());
+        ts.transform.translation.x = p.x(), ts.transform.translation.y = p.y(),
+        ts.transform.translation.z = p.z();
+        ts.transform.rotation.x = q.x(), ts.transform.rotation.y = q.y(), ts.transform.rotation.z = q.z();
+        ts.transform.rotation.w = q.w();
+        msg.transforms.push_back(ts);
+      }
+      bag.write("/tf", ros_time(m.stamp_ns), msg);
+      continue;
+    }
     sensor_msgs::JointState j;
     j.header.stamp = ros_time(m.stamp_ns);
     j.name = m.names;
@@ -722,6 +864,7 @@ ScanLog read_ros2_bag(const std::string& path, const RobotModel& robot, const Ba
     throw input_error(file, "cannot be opened as sqlite3");
   // Topics of the two types.
   int scan_id = -1, joint_id = -1;
+  std::set<int> tf_ids;
   {
     Stmt st;
     if (sqlite3_prepare_v2(db.db, "SELECT id, name, type, serialization_format FROM topics", -1, &st.s,
@@ -740,10 +883,13 @@ ScanLog read_ros2_bag(const std::string& path, const RobotModel& robot, const Ba
       if (type == kLaserScanType && scan_id < 0 && (topics.scan.empty() || topics.scan == name)) scan_id = id;
       if (type == kJointStateType && joint_id < 0 && (topics.joints.empty() || topics.joints == name))
         joint_id = id;
+      if (type == kTfType) tf_ids.insert(id);
     }
     if (rc != SQLITE_DONE)
       throw input_error(file, std::string("the topics cannot be read: ") + sqlite3_errmsg(db.db));
   }
+  if (joint_id >= 0) tf_ids.clear();  // joint states, where there are any
+  std::vector<TfTransform> tf;
   std::vector<ScanMsg> scans;
   std::vector<JointMsg> joints;
   Stmt st;
@@ -753,22 +899,26 @@ ScanLog read_ros2_bag(const std::string& path, const RobotModel& robot, const Ba
   int rc = SQLITE_ROW;
   while ((rc = sqlite3_step(st.s)) == SQLITE_ROW) {
     const int topic = sqlite3_column_int(st.s, 0);
-    if (topic != scan_id && topic != joint_id) continue;
+    if (topic != scan_id && topic != joint_id && !tf_ids.count(topic)) continue;
     const auto* data = static_cast<const uint8_t*>(sqlite3_column_blob(st.s, 1));
     const auto size = static_cast<size_t>(sqlite3_column_bytes(st.s, 1));
     if (topic == scan_id)
       scans.push_back(cdr_laser_scan(data, size, file));
-    else
+    else if (topic == joint_id)
       joints.push_back(cdr_joint_state(data, size, file));
+    else
+      cdr_tf_message(data, size, file, tf);
   }
   // A corrupt page ends the loop with an error, not with the last row: a shorter sweep must not pass as
   // whole.
   if (rc != SQLITE_DONE)
     throw input_error(file, std::string("the messages cannot all be read: ") + sqlite3_errmsg(db.db));
+  if (joints.empty() && !scans.empty()) joints = joints_of_tf(tf, robot, file);
   return to_scan_log(std::move(scans), std::move(joints), robot, "rosbag2", file);
 }
 
-void write_ros2_bag(const std::string& dir, const ScanLog& log, double epoch_s, Ros2Storage storage) {
+void write_ros2_bag(const std::string& dir, const ScanLog& log, double epoch_s, Ros2Storage storage,
+                    const RobotModel* tf_robot) {
   namespace fs = std::filesystem;
   std::vector<ScanMsg> scans;
   std::vector<JointMsg> joints;
@@ -778,23 +928,27 @@ void write_ros2_bag(const std::string& dir, const ScanLog& log, double epoch_s, 
   int64_t first = std::numeric_limits<int64_t>::max(), last = 0;
   for (const ScanMsg& m : scans) first = std::min(first, m.stamp_ns), last = std::max(last, m.stamp_ns);
   for (const JointMsg& m : joints) first = std::min(first, m.stamp_ns), last = std::max(last, m.stamp_ns);
+  // The arm's topic: joint states, or the transforms of its joints.
+  const std::string arm_topic = tf_robot ? "/tf" : "/joint_states";
+  const std::string arm_type = tf_robot ? kTfType : kJointStateType;
+  auto arm_cdr = [&](const JointMsg& m) { return tf_robot ? cdr_of(tf_of(m, *tf_robot)) : cdr_of(m); };
 
   if (storage == Ros2Storage::kMcap) {
     const std::string file = name + "_0.mcap";
     mcap::File bag;
     bag.profile = "ros2";
     bag.channels[1] = {1, "/scan", "cdr", kLaserScanType, "ros2msg", ""};
-    bag.channels[2] = {2, "/joint_states", "cdr", kJointStateType, "ros2msg", ""};
+    bag.channels[2] = {2, arm_topic, "cdr", arm_type, "ros2msg", ""};
     // In time order, as a recorder writes them.
     for (const ScanMsg& m : scans)
       bag.messages.push_back({1, static_cast<uint64_t>(m.stamp_ns), cdr_of(m, log.lidar_frame)});
     for (const JointMsg& m : joints)
-      bag.messages.push_back({2, static_cast<uint64_t>(m.stamp_ns), cdr_of(m)});
+      bag.messages.push_back({2, static_cast<uint64_t>(m.stamp_ns), arm_cdr(m)});
     std::stable_sort(
         bag.messages.begin(), bag.messages.end(),
         [](const mcap::Message& a, const mcap::Message& b) { return a.log_time_ns < b.log_time_ns; });
     mcap::write((fs::path(dir) / file).string(), bag);
-    write_ros2_metadata(dir, "mcap", file, scans.size(), joints.size(), first, last);
+    write_ros2_metadata(dir, "mcap", file, scans.size(), joints.size(), first, last, arm_topic, arm_type);
     return;
   }
 
@@ -811,8 +965,8 @@ void write_ros2_bag(const std::string& dir, const ScanLog& log, double epoch_s, 
            "NOT NULL, data BLOB NOT NULL);"
            "CREATE INDEX timestamp_idx ON messages (timestamp ASC);"
            "INSERT INTO topics VALUES (1, '/scan', '") +
-           kLaserScanType + "', 'cdr', '');INSERT INTO topics VALUES (2, '/joint_states', '" +
-           kJointStateType + "', 'cdr', '');BEGIN;");
+           kLaserScanType + "', 'cdr', '');INSERT INTO topics VALUES (2, '" + arm_topic + "', '" + arm_type +
+           "', 'cdr', '');BEGIN;");
   Stmt st;
   sqlite3_prepare_v2(db.db, "INSERT INTO messages (topic_id, timestamp, data) VALUES (?, ?, ?)", -1, &st.s,
                      nullptr);
@@ -824,9 +978,9 @@ void write_ros2_bag(const std::string& dir, const ScanLog& log, double epoch_s, 
     sqlite3_reset(st.s);
   };
   for (const ScanMsg& m : scans) insert(1, m.stamp_ns, cdr_of(m, log.lidar_frame));
-  for (const JointMsg& m : joints) insert(2, m.stamp_ns, cdr_of(m));
+  for (const JointMsg& m : joints) insert(2, m.stamp_ns, arm_cdr(m));
   exec(db.db, "COMMIT;");
-  write_ros2_metadata(dir, "sqlite3", db3, scans.size(), joints.size(), first, last);
+  write_ros2_metadata(dir, "sqlite3", db3, scans.size(), joints.size(), first, last, arm_topic, arm_type);
 }
 
 }  // namespace weldtwin

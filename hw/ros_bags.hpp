@@ -1,6 +1,8 @@
 // Recorded sweeps from ROS: a ROS 1 bag (Debian's librosbag) or a ROS 2 bag (its sqlite3 or MCAP storage,
 // CDR messages) holding sensor_msgs/LaserScan (one message per LiDAR turn, as the RPLIDAR drivers publish)
-// and sensor_msgs/JointState, turned into a ScanLog — and ScanLogs written as such bags (to record a twin
+// and the arm's poses — sensor_msgs/JointState, or, in a recording without joint states, the arm's links as
+// tf2_msgs/TFMessage on /tf (robot_state_publisher's transforms, read back into joint angles:
+// hw/tf_joints.hpp) — turned into a ScanLog — and ScanLogs written as such bags (to record a twin
 // sweep the way a real cell would, and for the tests).
 //
 // Time alignment: both topics carry header stamps on one clock; the log's zero is the earliest of them, each
@@ -30,13 +32,16 @@ ScanLog read_ros1_bag(const std::string& path, const RobotModel& robot, const Ba
 ScanLog read_ros2_bag(const std::string& path, const RobotModel& robot, const BagTopics& topics = {});
 
 /// Writes `log` as a ROS 1 bag (/scan, /joint_states), stamps from `epoch_s` on. Every turn must have evenly
-/// spaced angles (a LaserScan holds a start and an increment). Throws std::runtime_error when it cannot.
-void write_ros1_bag(const std::string& path, const ScanLog& log, double epoch_s = 1.7e9);
+/// spaced angles (a LaserScan holds a start and an increment). With `tf_robot`, the arm's poses go on /tf as
+/// that robot's joint transforms instead of /joint_states. Throws std::runtime_error when it cannot.
+void write_ros1_bag(const std::string& path, const ScanLog& log, double epoch_s = 1.7e9,
+                    const RobotModel* tf_robot = nullptr);
 
 enum class Ros2Storage { kSqlite3, kMcap };
 
-/// Writes `log` as a ROS 2 bag directory `dir` (metadata.yaml and `<name>_0.db3` or `<name>_0.mcap`).
+/// Writes `log` as a ROS 2 bag directory `dir` (metadata.yaml and `<name>_0.db3` or `<name>_0.mcap`); the
+/// arm's poses on /tf with `tf_robot`, as write_ros1_bag.
 void write_ros2_bag(const std::string& dir, const ScanLog& log, double epoch_s = 1.7e9,
-                    Ros2Storage storage = Ros2Storage::kSqlite3);
+                    Ros2Storage storage = Ros2Storage::kSqlite3, const RobotModel* tf_robot = nullptr);
 
 }  // namespace weldtwin

@@ -12,6 +12,7 @@
 #include <fstream>
 #include <functional>
 #include <iterator>
+#include <limits>
 #include <map>
 
 #include "core/error.hpp"
@@ -20,6 +21,7 @@
 #include "perception/localizer.hpp"
 #include "perception/mesh_io.hpp"
 #include "perception/scan_assembly.hpp"
+#include "tests/real_data.hpp"
 #include "tests/test_support.hpp"
 
 namespace weldtwin {
@@ -123,6 +125,51 @@ TEST(ScanSource, AnMcapBagGivesTheSqliteBagsCloudBitForBit) {
   EXPECT_EQ(differ, 0u);
 }
 
+TEST(ScanSource, ATfOnlyRecordingGivesItsJointStatesTwinsCloud) {
+  // A cell that records the arm as robot_state_publisher's /tf (no /joint_states): the joint angles are read
+  // back from the links' transforms. At the joint states' own stamps nothing is interpolated, so the cloud
+  // is its joint-state twin's up to rounding, in every bag format.
+  const Recorded& r = recorded();
+  const fs::path d = temp_dir();
+  const RobotModel& robot = r.cell.robot;
+  const AssembledCloud twin = assemble_scan(r.live, robot);
+  fs::remove_all(d / "tf_sqlite");
+  fs::remove_all(d / "tf_mcap");
+  write_ros1_bag((d / "tf.bag").string(), r.live, 1.7e9, &robot);
+  write_ros2_bag((d / "tf_sqlite").string(), r.live, 1.7e9, Ros2Storage::kSqlite3, &robot);
+  write_ros2_bag((d / "tf_mcap").string(), r.live, 1.7e9, Ros2Storage::kMcap, &robot);
+  const std::pair<const char*, ScanLog> logs[] = {
+      {"ROS 1", read_ros1_bag((d / "tf.bag").string(), robot)},
+      {"ROS 2 sqlite3", read_ros2_bag((d / "tf_sqlite").string(), robot)},
+      {"ROS 2 MCAP", read_ros2_bag((d / "tf_mcap").string(), robot)}};
+  for (const auto& [what, log] : logs) {
+    ASSERT_EQ(log.joints.size(), r.live.joints.size()) << what;
+    double dq = 0;
+    for (size_t k = 0; k < log.joints.size(); ++k)
+      dq = std::max(dq, (log.joints[k].q - r.live.joints[k].q).cwiseAbs().maxCoeff());
+    EXPECT_LT(dq, 1e-9) << what;
+    const AssembledCloud a = assemble_scan(log, robot);
+    ASSERT_EQ(a.points_base.size(), twin.points_base.size()) << what;
+    double dp = 0;
+    for (size_t i = 0; i < a.points_base.size(); ++i)
+      dp = std::max(dp, static_cast<double>((a.points_base[i] - twin.points_base[i]).norm()));
+    EXPECT_LT(dp, 1e-6) << what << ": the cloud moved";
+  }
+  // Transforms of another robot (a joint's origin 5 mm elsewhere) are not this robot's joints.
+  std::string moved;
+  for (const RobotLink& l : robot.links())
+    if (l.q_index == 2) moved = l.name;
+  const RobotModel other = robot.with_mount_offset(moved, planar_pose(0.005, 0, 0, 0));
+  write_ros1_bag((d / "tf_other.bag").string(), r.live, 1.7e9, &other);
+  try {
+    read_ros1_bag((d / "tf_other.bag").string(), robot);
+    ADD_FAILURE() << "another robot's transforms were read";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("is not the robot's joint"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("5.00 mm from its origin"), std::string::npos) << e.what();
+  }
+}
+
 TEST(ScanSource, RosbagsOwnMcapTestBagIsReadAndRefusedForWhatItLacks) {
   // rosbag2's own MCAP test bag (tests/data/README.md): zstd chunks, a schema per type.
   const std::string path = test::repo("tests/data/rosbag2_talker_mcap/talker.mcap");
@@ -173,6 +220,138 @@ TEST(ScanSource, BrokenMcapFilesAreRefusedWithTheReason) {
   EXPECT_NE(refusal("not mcap at all").find("not an MCAP file"), std::string::npos);
 }
 
+// One LaserScan's fields as its CDR bytes hold them (read here apart from the reader under test).
+struct RawScan {
+  int64_t stamp_ns = 0;
+  float angle_min = 0, angle_increment = 0, time_increment = 0, range_min = 0, range_max = 0;
+  std::vector<float> ranges;
+  size_t ranges_at = 0;  // byte offset of ranges[0] in the blob
+};
+
+RawScan raw_scan(const std::string& blob) {
+  // 4 bytes of encapsulation; then, aligned from there: stamp (int32 s, uint32 ns), frame_id (uint32 length
+  // with its NUL, the chars), 7 float32 (angle_min, angle_max, angle_increment, time_increment, scan_time,
+  // range_min, range_max), ranges (uint32 count, float32s).
+  auto u32 = [&](size_t at) {
+    uint32_t v = 0;
+    std::memcpy(&v, blob.data() + 4 + at, 4);
+    return v;
+  };
+  auto f32 = [&](size_t at) {
+    float v = 0;
+    std::memcpy(&v, blob.data() + 4 + at, 4);
+    return v;
+  };
+  RawScan s;
+  s.stamp_ns = int64_t{static_cast<int32_t>(u32(0))} * 1000000000 + u32(4);
+  size_t at = 12 + u32(8);
+  at = (at + 3) / 4 * 4;
+  s.angle_min = f32(at);
+  s.angle_increment = f32(at + 8);
+  s.time_increment = f32(at + 12);
+  s.range_min = f32(at + 20);
+  s.range_max = f32(at + 24);
+  const uint32_t n = u32(at + 28);
+  s.ranges_at = 4 + at + 32;
+  for (uint32_t i = 0; i < n; ++i) s.ranges.push_back(f32(at + 32 + 4 * i));
+  return s;
+}
+
+TEST(ScanSource, ARealRplidarRosBagsNoReturnsAreReadAsTheDriverMeansThem) {
+  // Slamtec's rplidar_ros publishes inf for a beam with no return; micro-ROS publishers send 0; some drivers
+  // send a range beyond range_max (or below range_min) for "nothing there". Every one is no return (range 0);
+  // every other beam is kept bit for bit, at its angle and time. The real bag holds only /scan: joint states
+  // from our writer are added to a copy, stamped over the same span.
+  const std::string real = test::real_data("bags/ros2_rplidar_scans/rosbag2_2025_05_08-14_24_05_0.db3");
+  if (!fs::exists(real)) GTEST_SKIP() << "skipped: ../shared/real not found (" << real << ")";
+  const RobotModel robot =
+      RobotModel::load(CellSpec::load(test::repo("scenes/cells/default.yaml")).robot_urdf);
+  const fs::path d = temp_dir() / "rplidar_ros";
+  fs::remove_all(d);
+  fs::create_directories(d);
+  const fs::path copy = d / "scans.db3";
+  fs::copy_file(real, copy);
+
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(copy.string().c_str(), &db), SQLITE_OK);
+  std::vector<std::pair<int64_t, std::string>> blobs;  // (row id, data), in time order
+  {
+    sqlite3_stmt* st = nullptr;
+    sqlite3_prepare_v2(db, "SELECT id, data FROM messages ORDER BY timestamp", -1, &st, nullptr);
+    while (sqlite3_step(st) == SQLITE_ROW)
+      blobs.emplace_back(sqlite3_column_int64(st, 0),
+                         std::string(static_cast<const char*>(sqlite3_column_blob(st, 1)),
+                                     static_cast<size_t>(sqlite3_column_bytes(st, 1))));
+    sqlite3_finalize(st);
+  }
+  ASSERT_EQ(blobs.size(), 420u);
+  // The first scan's first beams as micro-ROS and other drivers would send "no return".
+  RawScan first = raw_scan(blobs[0].second);
+  const float planted[] = {0.0f, first.range_max * 1.5f, first.range_min * 0.5f,
+                           std::numeric_limits<float>::quiet_NaN(), -1.0f};
+  for (size_t k = 0; k < std::size(planted); ++k)
+    std::memcpy(&blobs[0].second[first.ranges_at + 4 * k], &planted[k], 4);
+  {
+    sqlite3_stmt* st = nullptr;
+    sqlite3_prepare_v2(db, "UPDATE messages SET data = ? WHERE id = ?", -1, &st, nullptr);
+    sqlite3_bind_blob(st, 1, blobs[0].second.data(), static_cast<int>(blobs[0].second.size()), SQLITE_STATIC);
+    sqlite3_bind_int64(st, 2, blobs[0].first);
+    ASSERT_EQ(sqlite3_step(st), SQLITE_DONE);
+    sqlite3_finalize(st);
+  }
+  std::vector<RawScan> scans;
+  for (const auto& b : blobs) scans.push_back(raw_scan(b.second));
+  // Joint states at 100 Hz from 1 s before the first scan to 1 s after the last.
+  ScanLog joints;
+  joints.joint_names = robot.joint_names();
+  const double span_s = static_cast<double>(scans.back().stamp_ns - scans.front().stamp_ns) / 1e9;
+  for (double t = 0; t <= span_s + 2.0; t += 0.01) joints.joints.push_back({t, JointVector::Zero()});
+  write_ros2_bag((d / "joints").string(), joints, static_cast<double>(scans.front().stamp_ns) / 1e9 - 1.0);
+  const std::string attach =
+      "ATTACH '" + (d / "joints" / "joints_0.db3").string() +
+      "' AS j; INSERT INTO topics SELECT * FROM j.topics WHERE id = 2;"
+      "INSERT INTO messages (topic_id, timestamp, data) SELECT topic_id, timestamp, data "
+      "FROM j.messages WHERE topic_id = 2;";
+  ASSERT_EQ(sqlite3_exec(db, attach.c_str(), nullptr, nullptr, nullptr), SQLITE_OK) << sqlite3_errmsg(db);
+  sqlite3_close(db);
+
+  const ScanLog log = read_ros2_bag(copy.string(), robot);
+  ASSERT_EQ(log.turns.size(), scans.size());
+  const double first_s = log.samples[log.turns[0].first].t_s;  // times relative to the first scan's stamp
+  size_t infinite = 0, kept = 0, none = 0;
+  for (size_t k = 0; k < scans.size(); ++k) {
+    const RawScan& m = scans[k];
+    const LidarTurn& turn = log.turns[k];
+    ASSERT_EQ(turn.count, m.ranges.size()) << "scan " << k;
+    for (size_t i = 0; i < m.ranges.size(); ++i) {
+      const LidarSample& s = log.samples[turn.first + i];
+      const float r = m.ranges[i];
+      infinite += std::isinf(r);
+      const bool ret = std::isfinite(r) && r > 0 && r >= m.range_min && r <= m.range_max;
+      if (ret) {
+        ++kept;
+        ASSERT_EQ(s.range_m, r) << "scan " << k << " beam " << i;
+        EXPECT_GT(s.quality, 0) << "scan " << k << " beam " << i;
+      } else {
+        ++none;
+        ASSERT_EQ(s.range_m, 0.0f) << "scan " << k << " beam " << i << ": " << r << " must be no return";
+        EXPECT_EQ(s.quality, 0);
+      }
+      double a =
+          std::fmod(static_cast<double>(m.angle_min) + static_cast<double>(i) * m.angle_increment, 2 * kPi);
+      if (a < 0) a += 2 * kPi;
+      const double da = std::abs(a - s.angle_rad);
+      EXPECT_LT(std::min(da, 2 * kPi - da), 1e-5) << "scan " << k << " beam " << i;
+      const double t = static_cast<double>(m.stamp_ns - scans.front().stamp_ns) / 1e9 +
+                       static_cast<double>(i) * m.time_increment;
+      EXPECT_NEAR(s.t_s - first_s, t, 1e-6) << "scan " << k << " beam " << i;
+    }
+  }
+  EXPECT_GT(infinite, 1000u) << "the real bag's own no-returns (inf)";
+  EXPECT_GT(kept, 100000u);
+  EXPECT_GE(none, infinite + 4);  // and the planted ones (one of them is not finite either)
+}
+
 TEST(ScanSource, JointStatesAreReorderedByNameAndTheirTimesKept) {
   // A bag whose joint states list the joints in another order and start before the first scan.
   const Recorded& r = recorded();
@@ -214,7 +393,16 @@ TEST(ScanSource, BadInputIsRefusedNamingTheFile) {
   ScanLog no_joints = r.live;
   no_joints.joints.clear();
   write_ros1_bag((d / "scans_only.bag").string(), no_joints);
-  refused("log:" + (d / "scans_only.bag").string(), "no sensor_msgs/JointState");
+  refused("log:" + (d / "scans_only.bag").string(),
+          "no sensor_msgs/JointState messages and no tf2_msgs/TFMessage");
+  // A LaserScan whose beams are seconds apart (fuzz_ros_bag's finding: a time_increment of 1e19 s had
+  // overflowed the beams' nanoseconds).
+  ScanLog slow = r.live;
+  slow.turns.resize(1);
+  slow.samples.resize(slow.turns[0].count);
+  for (size_t i = 0; i < slow.samples.size(); ++i) slow.samples[i].t_s = 2.0 * static_cast<double>(i);
+  write_ros1_bag((d / "slow.bag").string(), slow);
+  refused("log:" + (d / "slow.bag").string(), "beams are 2 s apart (time_increment): not a scanning LiDAR");
   // Bags whose offsets send rosbag into the middle of a record (it allocated the 3.8 GB length it read there;
   // fuzz_ros_bag's finding): the version line run on past its newline, the index position moved by a byte.
   write_ros1_bag((d / "whole.bag").string(), r.live);
