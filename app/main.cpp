@@ -140,7 +140,10 @@ int main(int argc, char** argv) {
   pc->add_option("--pose", plan.pose, "pose JSON with T_base_part (as weldtwin localize writes it)")
       ->required()
       ->check(CLI::ExistingFile);
-  pc->add_option("--cell", plan.cell, "cell file for the robot (default: scenes/cells/default.yaml)");
+  pc->add_option(
+      "--cell", plan.cell,
+      "cell file: its robot, and its table, clamps and clutter to plan around (default: the default "
+      "cell's robot, joint limits only)");
   pc->add_option("--out", plan.out, "plan JSON to write")->required();
   pc->add_option("--csv", plan.csv, "joint trajectory CSV to write (t,j1..j6)");
   pc->add_flag("-q,--quiet", plan.quiet, "no progress lines");

@@ -4,12 +4,16 @@
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "core/cell_spec.hpp"
 #include "core/error.hpp"
 #include "core/part_spec.hpp"
 #include "perception/mesh_io.hpp"
 #include "planning/weld_planner.hpp"
+#include "sim/cell_layout.hpp"
+#include "sim/collision_check.hpp"
+#include "sim/mujoco_world.hpp"
 
 namespace weldtwin {
 
@@ -77,13 +81,22 @@ int run_plan(const PlanCommand& cmd) {
       throw input_error(cmd.pose, buf);
     }
   }
-  const PlanSetting setting;
+  // With a cell, the plan avoids what the cell holds (its table, clamps and clutter as the cell file places
+  // them, the part where the pose puts it), as `weldtwin run` plans; without one, joint limits only.
+  PlanSetting setting;
+  const bool checked = !cmd.cell.empty();
+  std::optional<MujocoWorld> world;
+  std::optional<CollisionChecker> checker;
+  if (checked) {
+    world.emplace(cell, part, robot, make_layout(cell, part, std::nullopt));
+    checker.emplace(*world);
+    checker->add_part(load_mesh(part.mesh_path), T_base_part);
+    setting.collision = *checker;
+  }
   const WeldPlan plan = plan_welds(part, T_base_part, robot, setting);
 
   nlohmann::json out = plan_to_json(plan, part, robot, setting);
-  // This plan is checked against the joint limits only: the cell's table, clamps and part are checked when
-  // the plan is replayed (weldtwin replay, weldtwin run).
-  out["collisions_checked"] = false;
+  out["collisions_checked"] = checked;
   std::ofstream(cmd.out) << out.dump() << '\n';
   if (!cmd.csv.empty()) {
     std::ofstream csv(cmd.csv);
@@ -100,10 +113,13 @@ int run_plan(const PlanCommand& cmd) {
                  plan.seams.size(), plan.duration_s(), plan.samples.size(), setting.sample_hz,
                  cmd.out.c_str());
     for (const auto& n : plan.notes) std::fprintf(stderr, "plan: note: %s\n", n.c_str());
-    std::fprintf(stderr,
-                 "plan: note: collisions not checked (joint limits only): replay it in the cell "
-                 "(weldtwin replay %s) before it goes to a robot\n",
-                 cmd.out.c_str());
+    if (!checked)
+      std::fprintf(
+          stderr,
+          "plan: note: collisions not checked (joint limits only; give --cell to plan against its "
+          "table, clamps and clutter): replay it in the cell (weldtwin replay %s) before it goes to a "
+          "robot\n",
+          cmd.out.c_str());
   }
   if (!plan.ok()) {
     std::fprintf(stderr, "weldtwin: %s: %s\n", cmd.part.c_str(), plan.problems.front().c_str());

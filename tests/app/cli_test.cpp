@@ -92,6 +92,17 @@ TEST(Cli, PlanRefusesBadInputAndUnreachableSeams) {
                                " --out " + out + " --csv " + out + ".csv -q");
   EXPECT_EQ(good.code, 0) << good.err;
   EXPECT_GT(std::filesystem::file_size(out + ".csv"), 10000u);
+  // With a cell, the plan avoids the cell's table, clamps and clutter, and says so (examples/03 replays one);
+  // at the cell's own placement of the part.
+  const CliRun in_cell =
+      weldtwin("plan --part " + part + " --pose " + temp_file("cell.json", pose(0.48, 0.06)) + " --cell " +
+               test::repo("scenes/cells/default.yaml") + " --out " + out + " -q");
+  EXPECT_EQ(in_cell.code, 0) << in_cell.err;
+  {
+    std::ifstream in(out);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_NE(text.find("\"collisions_checked\":true"), std::string::npos);
+  }
   // Out of reach: the job ran, the answer is "cannot weld": exit 3, the seam named, the plan says why.
   const CliRun far = weldtwin("plan --part " + part + " --pose " + temp_file("far.json", pose(0.95, 0.0)) +
                               " --out " + out + " -q");
