@@ -4,8 +4,12 @@
 #include <urdf_parser/urdf_parser.h>
 
 #include <algorithm>
+#include <cctype>
+#include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
@@ -19,7 +23,7 @@ Iso3 to_iso(const urdf::Pose& p) {
   return make_transform(Vec3(p.position.x, p.position.y, p.position.z), q.normalized().toRotationMatrix());
 }
 
-// Converts a URDF geometry into a primitive; meshes are not used by the robot model (primitives only).
+// Converts a URDF primitive (box, cylinder, sphere; meshes are kept apart, as LinkMesh).
 LinkGeometry to_geometry(const urdf::GeometrySharedPtr& g, const urdf::Pose& origin,
                          const std::string& source, const std::string& link) {
   LinkGeometry out;
@@ -45,7 +49,7 @@ LinkGeometry to_geometry(const urdf::GeometrySharedPtr& g, const urdf::Pose& ori
     }
     default:
       throw input_error(source,
-                        "link '" + link + "' uses a mesh; the robot model takes box, cylinder, sphere");
+                        "link '" + link + "' uses a geometry that is not a box, cylinder, sphere or mesh");
   }
   if ((out.size.array() < 0.0).any()) throw input_error(source, "link '" + link + "' has a negative size");
   return out;
@@ -53,12 +57,12 @@ LinkGeometry to_geometry(const urdf::GeometrySharedPtr& g, const urdf::Pose& ori
 
 }  // namespace
 
-RobotModel RobotModel::load(const std::string& urdf_path) {
+RobotModel RobotModel::load(const std::string& urdf_path, const std::vector<std::string>& package_dirs) {
   std::ifstream in(urdf_path);
   if (!in) throw input_error(urdf_path, "cannot open the robot description");
   std::stringstream ss;
   ss << in.rdbuf();
-  return from_string(ss.str(), urdf_path);
+  return from_string(ss.str(), urdf_path, package_dirs);
 }
 
 namespace {
@@ -90,9 +94,136 @@ size_t xml_depth(const std::string& xml) {
 
 constexpr size_t kMaxUrdfDepth = 64;  // a robot description nests a handful of levels
 
+// The elements a URDF may hold (the format's own, and the transmission and Gazebo blocks tools add).
+const std::set<std::string>& urdf_elements() {
+  static const std::set<std::string> e = {"robot",
+                                          "link",
+                                          "joint",
+                                          "inertial",
+                                          "origin",
+                                          "mass",
+                                          "inertia",
+                                          "visual",
+                                          "collision",
+                                          "geometry",
+                                          "box",
+                                          "cylinder",
+                                          "sphere",
+                                          "mesh",
+                                          "capsule",
+                                          "material",
+                                          "color",
+                                          "texture",
+                                          "parent",
+                                          "child",
+                                          "axis",
+                                          "limit",
+                                          "dynamics",
+                                          "calibration",
+                                          "mimic",
+                                          "safety_controller",
+                                          "transmission",
+                                          "type",
+                                          "actuator",
+                                          "hardwareInterface",
+                                          "mechanicalReduction",
+                                          "gazebo",
+                                          "plugin",
+                                          "version"};
+  return e;
+}
+
+// Every element's name and how often it appears (the same rough scan as xml_depth).
+std::map<std::string, int> element_names(const std::string& xml) {
+  std::map<std::string, int> names;
+  for (size_t i = xml.find('<'); i != std::string::npos && i + 1 < xml.size(); i = xml.find('<', i + 1)) {
+    const char c = xml[i + 1];
+    if (c == '!') {
+      const size_t end = xml.compare(i, 4, "<!--") == 0 ? xml.find("-->", i) : xml.find('>', i);
+      if (end == std::string::npos) break;
+      i = end;
+      continue;
+    }
+    if (c == '/' || c == '?') continue;
+    size_t end = i + 1;
+    while (end < xml.size() && (std::isalnum(static_cast<unsigned char>(xml[end])) || xml[end] == '_' ||
+                                xml[end] == ':' || xml[end] == '-' || xml[end] == '.'))
+      ++end;
+    if (end > i + 1) ++names[xml.substr(i + 1, std::min<size_t>(end - i - 1, 64))];
+  }
+  return names;
+}
+
+// The folder of ROS package `name`: beside or above `from` (a folder named so, holding package.xml), in one
+// of `dirs` (the folder itself, or a folder holding it), or in ROS_PACKAGE_PATH's. "" when there is none.
+std::string package_folder(const std::string& name, const std::filesystem::path& from,
+                           std::vector<std::string> dirs) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  auto is_package = [&](const fs::path& d) {
+    return d.filename() == name && fs::is_regular_file(d / "package.xml", ec);
+  };
+  for (fs::path d = fs::absolute(from, ec); !d.empty(); d = d.parent_path()) {
+    if (is_package(d)) return d.string();
+    if (is_package(d / name)) return (d / name).string();
+    if (d == d.parent_path()) break;
+  }
+  if (const char* env = std::getenv("ROS_PACKAGE_PATH")) {
+    std::stringstream ss(env);
+    for (std::string item; std::getline(ss, item, ':');)
+      if (!item.empty()) dirs.push_back(item);
+  }
+  for (const std::string& dir : dirs) {
+    if (is_package(dir)) return dir;
+    if (is_package(fs::path(dir) / name)) return (fs::path(dir) / name).string();
+  }
+  return "";
+}
+
+// A mesh's file as the URDF names it (package://, file:// or a path), resolved and checked to exist.
+std::string mesh_file(const std::string& filename, const std::string& source, const std::string& link,
+                      const std::vector<std::string>& package_dirs) {
+  namespace fs = std::filesystem;
+  const fs::path urdf_dir = fs::path(source).parent_path();
+  std::string path;
+  if (filename.rfind("package://", 0) == 0) {
+    const std::string rest = filename.substr(10);
+    const size_t slash = rest.find('/');
+    const std::string package = rest.substr(0, slash);
+    const std::string folder = package_folder(package, urdf_dir, package_dirs);
+    if (folder.empty())
+      throw input_error(source,
+                        "link '" + link + "': mesh " + filename + ": package '" + package +
+                            "' not found (a folder of that name with its package.xml, beside or above "
+                            "the URDF, or on ROS_PACKAGE_PATH)");
+    path = slash == std::string::npos ? folder : (fs::path(folder) / rest.substr(slash + 1)).string();
+  } else if (filename.rfind("file://", 0) == 0) {
+    path = filename.substr(7);
+  } else {
+    path = fs::path(filename).is_absolute() ? filename : (urdf_dir / filename).string();
+  }
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec))
+    throw input_error(source, "link '" + link + "': mesh " + filename + " is not there (" + path + ")");
+  return path;
+}
+
+LinkMesh to_mesh(const urdf::GeometrySharedPtr& g, const urdf::Pose& origin, const std::string& source,
+                 const std::string& link, const std::vector<std::string>& package_dirs) {
+  const auto m = std::static_pointer_cast<urdf::Mesh>(g);
+  LinkMesh out;
+  out.path = mesh_file(m->filename, source, link, package_dirs);
+  out.scale = Vec3(m->scale.x, m->scale.y, m->scale.z);
+  out.T_link_mesh = to_iso(origin);
+  if (!(out.scale.array() > 0.0).all() || !out.scale.allFinite())
+    throw input_error(source, "link '" + link + "': a mesh scale that is not positive");
+  return out;
+}
+
 }  // namespace
 
-RobotModel RobotModel::from_string(const std::string& urdf_xml, const std::string& source) {
+RobotModel RobotModel::from_string(const std::string& urdf_xml, const std::string& source,
+                                   const std::vector<std::string>& package_dirs) {
   if (urdf_xml.find_first_not_of(" \t\r\n") == std::string::npos) throw input_error(source, "empty URDF");
   if (const size_t depth = xml_depth(urdf_xml); depth > kMaxUrdfDepth)
     throw input_error(source, "elements nested " + std::to_string(depth) +
@@ -107,6 +238,11 @@ RobotModel RobotModel::from_string(const std::string& urdf_xml, const std::strin
 
   RobotModel model;
   model.name_ = urdf->getName();
+  for (const auto& [name, count] : element_names(urdf_xml))
+    if (!urdf_elements().count(name))
+      model.notes_.push_back("ignored <" + name + ">" +
+                             (count > 1 ? " (" + std::to_string(count) + " times)" : "") +
+                             ": not an element of URDF");
   // Depth-first from the root keeps parents before children.
   std::vector<std::pair<urdf::LinkConstSharedPtr, int>> stack{{root, -1}};
   while (!stack.empty()) {
@@ -144,10 +280,19 @@ RobotModel RobotModel::from_string(const std::string& urdf_xml, const std::strin
           throw input_error(source, "joint '" + joint->name + "' is neither revolute nor fixed");
       }
     }
-    for (const auto& c : link->collision_array)
-      if (c && c->geometry) out.collision.push_back(to_geometry(c->geometry, c->origin, source, link->name));
+    for (const auto& c : link->collision_array) {
+      if (!c || !c->geometry) continue;
+      if (c->geometry->type == urdf::Geometry::MESH)
+        out.collision_meshes.push_back(to_mesh(c->geometry, c->origin, source, link->name, package_dirs));
+      else
+        out.collision.push_back(to_geometry(c->geometry, c->origin, source, link->name));
+    }
     for (const auto& v : link->visual_array) {
       if (!v || !v->geometry) continue;
+      if (v->geometry->type == urdf::Geometry::MESH) {
+        out.visual_meshes.push_back(to_mesh(v->geometry, v->origin, source, link->name, package_dirs));
+        continue;
+      }
       LinkGeometry g = to_geometry(v->geometry, v->origin, source, link->name);
       if (v->material)
         g.rgba << v->material->color.r, v->material->color.g, v->material->color.b, v->material->color.a;

@@ -22,6 +22,13 @@ struct LinkGeometry {
   Eigen::Vector4d rgba{0.7, 0.7, 0.7, 1.0};
 };
 
+/// A mesh of a link (the vendor's descriptions give meshes where ours give primitives), in the link frame.
+struct LinkMesh {
+  std::string path;  ///< the file, resolved: `package://NAME/...` through the folder of package NAME
+  Vec3 scale = Vec3::Ones();
+  Iso3 T_link_mesh = Iso3::Identity();
+};
+
 struct LinkInertial {
   Iso3 T_link_com = Iso3::Identity();
   double mass_kg = 0.0;
@@ -38,6 +45,7 @@ struct RobotLink {
   double lower_rad = 0.0, upper_rad = 0.0, velocity_rad_s = 0.0;
   std::vector<LinkGeometry> collision;
   std::vector<LinkGeometry> visual;
+  std::vector<LinkMesh> collision_meshes, visual_meshes;
   bool has_inertial = false;
   LinkInertial inertial;
 };
@@ -45,15 +53,22 @@ struct RobotLink {
 /// Kinematic tree of a serial robot with revolute and fixed joints. Links are stored parents-first.
 class RobotModel {
  public:
-  /// Loads a URDF file. Throws InputError naming the file for a malformed file or an unsupported joint.
-  static RobotModel load(const std::string& urdf_path);
-  /// Parses URDF text; `source` names it in error messages.
-  static RobotModel from_string(const std::string& urdf_xml, const std::string& source);
+  /// Loads a URDF file. Mesh files named `package://NAME/...` are found in the folder of package NAME: a
+  /// folder named NAME holding a package.xml, beside or above the URDF's folder, or in one of
+  /// `package_dirs` (or of ROS_PACKAGE_PATH's); other relative paths from the URDF's folder. Elements URDF
+  /// does not define (a vendor's own) are ignored, each named once in notes(). Throws InputError naming the
+  /// file for a malformed file, an unsupported joint, or a mesh that is not there.
+  static RobotModel load(const std::string& urdf_path, const std::vector<std::string>& package_dirs = {});
+  /// Parses URDF text; `source` names it in error messages (and its folder is where relative paths start).
+  static RobotModel from_string(const std::string& urdf_xml, const std::string& source,
+                                const std::vector<std::string>& package_dirs = {});
 
   const std::vector<RobotLink>& links() const { return links_; }
   const std::string& name() const { return name_; }
   int dof() const { return static_cast<int>(joint_names_.size()); }
   const std::vector<std::string>& joint_names() const { return joint_names_; }
+  /// What loading left aside, for the user to read ("ignored <dh_type>: not a URDF element").
+  const std::vector<std::string>& notes() const { return notes_; }
 
   /// Index of a link by name, or -1.
   int link_index(const std::string& link_name) const;
@@ -81,6 +96,7 @@ class RobotModel {
   std::string name_;
   std::vector<RobotLink> links_;
   std::vector<std::string> joint_names_;
+  std::vector<std::string> notes_;
   JointVector lower_, upper_, max_velocity_, max_acceleration_;
 };
 

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 
 #include "core/error.hpp"
@@ -57,6 +58,85 @@ TEST(RobotModel, LimitsAreTheDatasheetFigures) {
     EXPECT_DOUBLE_EQ(robot.max_velocity()[j], j < 3 ? 2.5 : 3.2);
     EXPECT_DOUBLE_EQ(robot.max_acceleration()[j], j < 3 ? 17.2 : 20.7);
   }
+}
+
+// The vendor's own description (tests/data/aubo_description, as its ROS package ships it): meshes through
+// package://, vendor-only elements ignored with a note, its joint limits, and the same kinematic chain as
+// ours: every arm link's pose equal within 1e-9 m and 1e-9 rad at 200 random joint vectors.
+TEST(RobotModel, TheVendorsDescriptionLoadsWithItsMeshesAndLimitsAndOurKinematics) {
+  const std::string urdf = test::repo("tests/data/aubo_description/urdf/aubo_i5.urdf");
+  const RobotModel vendor = RobotModel::load(urdf);
+  const RobotModel ours = RobotModel::load(test::repo("scenes/robots/aubo_i5.urdf"));
+  ASSERT_EQ(vendor.joint_names(), ours.joint_names());
+  for (int j = 0; j < 6; ++j) {
+    EXPECT_NEAR(vendor.lower()[j], -2 * kPi, 1e-12);
+    EXPECT_NEAR(vendor.upper()[j], 2 * kPi, 1e-12);
+    EXPECT_DOUBLE_EQ(vendor.max_velocity()[j], j < 3 ? 2.5964 : 3.1105);  // rad/s, as the file gives
+  }
+  std::string notes;
+  for (const std::string& n : vendor.notes()) notes += n + "\n";
+  for (const char* n : {"ignored <dh_type>: not an element of URDF", "ignored <safety_para>",
+                        "ignored <friction_coeff>", "ignored <property> (6 times)"})
+    EXPECT_NE(notes.find(n), std::string::npos) << n << " in\n" << notes;
+  EXPECT_EQ(ours.notes().size(), 0u) << ours.notes().front();
+  // Every link's meshes, found through the package's folder.
+  size_t meshes = 0;
+  for (const RobotLink& l : vendor.links()) {
+    for (const LinkMesh& m : l.collision_meshes) {
+      ++meshes;
+      EXPECT_TRUE(std::filesystem::is_regular_file(m.path)) << m.path;
+      EXPECT_NE(m.path.find("aubo_description/meshes/aubo_i5/collision/"), std::string::npos) << m.path;
+    }
+    EXPECT_EQ(l.collision_meshes.size(), l.visual_meshes.size()) << l.name;
+  }
+  EXPECT_EQ(meshes, 7u);
+  // The same chain: the vendor's root is a `world` link above base_link.
+  const int vendor_base = vendor.require_link("base_link");
+  std::mt19937_64 rng(11);
+  double worst_m = 0, worst_rad = 0;
+  for (int k = 0; k < 200; ++k) {
+    const JointVector q = test::random_q(ours, rng);
+    const Iso3 T_world_base = vendor.forward_kinematics(q, vendor_base);
+    for (const char* link :
+         {"shoulder_Link", "upperArm_Link", "foreArm_Link", "wrist1_Link", "wrist2_Link", "wrist3_Link"}) {
+      const Iso3 a = T_world_base.inverse() * vendor.forward_kinematics(q, vendor.require_link(link));
+      const Iso3 b = ours.forward_kinematics(q, ours.require_link(link));
+      worst_m = std::max(worst_m, (a.translation() - b.translation()).norm());
+      worst_rad = std::max(worst_rad, Eigen::AngleAxisd(a.linear().transpose() * b.linear()).angle());
+    }
+  }
+  EXPECT_LT(worst_m, 1e-9);
+  EXPECT_LT(worst_rad, 1e-9);
+}
+
+TEST(RobotModel, AMeshWhosePackageOrFileIsMissingIsRefusedNamingIt) {
+  const std::string link =
+      "<link name='a'/><joint name='j' type='revolute'><parent link='a'/><child link='b'/>"
+      "<axis xyz='0 0 1'/><limit lower='-1' upper='1' velocity='1' effort='1'/></joint>";
+  auto robot = [&](const std::string& mesh) {
+    std::string xml = "<robot name='r'>" + link + "<link name='b'><collision><geometry><mesh filename='" +
+                      mesh + "'/></geometry></collision></link>";
+    for (int k = 0; k < 5; ++k) {  // five more joints: a 6-joint arm
+      const std::string p = k == 0 ? "b" : "c" + std::to_string(k - 1), c = "c" + std::to_string(k);
+      xml += "<link name='" + c + "'/><joint name='j" + c + "' type='revolute'><parent link='" + p +
+             "'/><child link='" + c +
+             "'/><axis xyz='0 0 1'/><limit lower='-1' upper='1' velocity='1' "
+             "effort='1'/></joint>";
+    }
+    return xml + "</robot>";
+  };
+  auto error = [&](const std::string& mesh) {
+    try {
+      RobotModel::from_string(robot(mesh), "/tmp/r.urdf");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_NE(error("package://no_such_package/m.stl").find("package 'no_such_package' not found"),
+            std::string::npos);
+  EXPECT_NE(error("missing_mesh.stl").find("mesh missing_mesh.stl is not there (/tmp/missing_mesh.stl)"),
+            std::string::npos);
 }
 
 TEST(RobotModel, BadFilesAreInputErrorsNamingTheFile) {
