@@ -67,10 +67,17 @@ RobotModel RobotModel::load(const std::string& urdf_path, const std::vector<std:
 
 namespace {
 
-// How deep the XML's elements nest (comments, declarations and CDATA skipped; a rough count is enough):
-// the XML parser under urdfdom recurses per level, so a file nested 100,000 deep overflowed the stack.
-size_t xml_depth(const std::string& xml) {
-  size_t depth = 0, deepest = 0;
+// What a rough scan of the XML tells (comments, declarations and CDATA skipped): how deep its elements nest
+// (the XML parser under urdfdom recurses per level, so a file nested 100,000 deep overflowed the stack), and
+// every element's name with how often it appears (to name the elements URDF does not define).
+struct XmlOutline {
+  size_t deepest = 0;
+  std::map<std::string, int> elements;
+};
+
+XmlOutline xml_outline(const std::string& xml) {
+  XmlOutline out;
+  size_t depth = 0;
   for (size_t i = xml.find('<'); i != std::string::npos; i = xml.find('<', i + 1)) {
     if (i + 1 >= xml.size()) break;
     const char c = xml[i + 1];
@@ -84,74 +91,32 @@ size_t xml_depth(const std::string& xml) {
       depth -= depth > 0;
       continue;
     }
+    size_t name_end = i + 1;
+    while (name_end < xml.size() &&
+           (std::isalnum(static_cast<unsigned char>(xml[name_end])) || xml[name_end] == '_' ||
+            xml[name_end] == ':' || xml[name_end] == '-' || xml[name_end] == '.'))
+      ++name_end;
+    if (name_end > i + 1) ++out.elements[xml.substr(i + 1, std::min<size_t>(name_end - i - 1, 64))];
     const size_t end = xml.find('>', i);
     if (end == std::string::npos) break;
-    if (xml[end - 1] != '/') deepest = std::max(deepest, ++depth);
+    if (xml[end - 1] != '/') out.deepest = std::max(out.deepest, ++depth);
     i = end;
   }
-  return deepest;
+  return out;
 }
 
 constexpr size_t kMaxUrdfDepth = 64;  // a robot description nests a handful of levels
 
 // The elements a URDF may hold (the format's own, and the transmission and Gazebo blocks tools add).
 const std::set<std::string>& urdf_elements() {
-  static const std::set<std::string> e = {"robot",
-                                          "link",
-                                          "joint",
-                                          "inertial",
-                                          "origin",
-                                          "mass",
-                                          "inertia",
-                                          "visual",
-                                          "collision",
-                                          "geometry",
-                                          "box",
-                                          "cylinder",
-                                          "sphere",
-                                          "mesh",
-                                          "capsule",
-                                          "material",
-                                          "color",
-                                          "texture",
-                                          "parent",
-                                          "child",
-                                          "axis",
-                                          "limit",
-                                          "dynamics",
-                                          "calibration",
-                                          "mimic",
-                                          "safety_controller",
-                                          "transmission",
-                                          "type",
-                                          "actuator",
-                                          "hardwareInterface",
-                                          "mechanicalReduction",
-                                          "gazebo",
-                                          "plugin",
-                                          "version"};
+  // clang-format off
+  static const std::set<std::string> e = {
+      "robot", "link", "joint", "inertial", "origin", "mass", "inertia", "visual", "collision", "geometry", "box",
+      "cylinder", "sphere", "mesh", "capsule", "material", "color", "texture", "parent", "child", "axis", "limit",
+      "dynamics", "calibration", "mimic", "safety_controller", "transmission", "type", "actuator",
+      "hardwareInterface", "mechanicalReduction", "gazebo", "plugin", "version"};
+  // clang-format on
   return e;
-}
-
-// Every element's name and how often it appears (the same rough scan as xml_depth).
-std::map<std::string, int> element_names(const std::string& xml) {
-  std::map<std::string, int> names;
-  for (size_t i = xml.find('<'); i != std::string::npos && i + 1 < xml.size(); i = xml.find('<', i + 1)) {
-    const char c = xml[i + 1];
-    if (c == '!') {
-      const size_t end = xml.compare(i, 4, "<!--") == 0 ? xml.find("-->", i) : xml.find('>', i);
-      if (end == std::string::npos) break;
-      i = end;
-      continue;
-    }
-    if (c == '/' || c == '?') continue;
-    size_t end = i + 1;
-    while (end < xml.size() && (std::isalnum(static_cast<unsigned char>(xml[end])) || xml[end] == '_' ||
-                                xml[end] == ':' || xml[end] == '-' || xml[end] == '.'))
-      ++end;
-    if (end > i + 1) ++names[xml.substr(i + 1, std::min<size_t>(end - i - 1, 64))];
-  }
-  return names;
 }
 
 // The folder of ROS package `name`: beside or above `from` (a folder named so, holding package.xml), in one
@@ -225,7 +190,8 @@ LinkMesh to_mesh(const urdf::GeometrySharedPtr& g, const urdf::Pose& origin, con
 RobotModel RobotModel::from_string(const std::string& urdf_xml, const std::string& source,
                                    const std::vector<std::string>& package_dirs) {
   if (urdf_xml.find_first_not_of(" \t\r\n") == std::string::npos) throw input_error(source, "empty URDF");
-  if (const size_t depth = xml_depth(urdf_xml); depth > kMaxUrdfDepth)
+  const XmlOutline outline = xml_outline(urdf_xml);
+  if (const size_t depth = outline.deepest; depth > kMaxUrdfDepth)
     throw input_error(source, "elements nested " + std::to_string(depth) +
                                   " deep (a robot description has a "
                                   "few levels): not a URDF");
@@ -238,7 +204,7 @@ RobotModel RobotModel::from_string(const std::string& urdf_xml, const std::strin
 
   RobotModel model;
   model.name_ = urdf->getName();
-  for (const auto& [name, count] : element_names(urdf_xml))
+  for (const auto& [name, count] : outline.elements)
     if (!urdf_elements().count(name))
       model.notes_.push_back("ignored <" + name + ">" +
                              (count > 1 ? " (" + std::to_string(count) + " times)" : "") +
