@@ -27,6 +27,7 @@
 #include "app/calibrate_command.hpp"
 #include "app/localize_command.hpp"
 #include "app/plan_command.hpp"
+#include "core/cell_robot.hpp"
 #include "core/cell_spec.hpp"
 #include "core/cloud_io.hpp"
 #include "core/error.hpp"
@@ -71,7 +72,7 @@ struct BenchCell {
   BenchCell(const std::string& file, const std::string& sweep)
       : cell(CellSpec::load(file)),
         part(PartSpec::load(cell.part_spec)),
-        robot(RobotModel::load(cell.robot_urdf)),
+        robot(load_cell_robot(cell)),
         program(SweepProgram::load(sweep.empty() ? cell.sweep_program : sweep, robot)),
         mesh(load_mesh(part.mesh_path)),
         seam_points(part.seam_points(0.001)),

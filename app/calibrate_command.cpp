@@ -5,6 +5,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "core/cell_robot.hpp"
 #include "core/cell_spec.hpp"
 #include "core/error.hpp"
 #include "hw/scan_source.hpp"
@@ -28,10 +29,12 @@ Vec3 rpy_deg(const Mat3& R) {
 
 // Writes `urdf` again with the origin of the joint whose child is `link` replaced by `origin`; every other
 // element as it was (parsed and written by TinyXML, which urdfdom reads with).
-void write_urdf_with_mount(const std::string& urdf, const std::string& link, const Iso3& origin,
-                           const std::string& out) {
+// Writes the robot's URDF (`urdf_xml`, read from `source`) with the joint of `link` moved to `origin`.
+void write_urdf_with_mount(const std::string& urdf_xml, const std::string& source, const std::string& link,
+                           const Iso3& origin, const std::string& out) {
   TiXmlDocument doc;
-  if (!doc.LoadFile(urdf.c_str())) throw input_error(urdf, "cannot be read as XML");
+  doc.Parse(urdf_xml.c_str());
+  if (doc.Error()) throw input_error(source, "cannot be read as XML");
   TiXmlElement* robot = doc.FirstChildElement("robot");
   for (TiXmlElement* j = robot ? robot->FirstChildElement("joint") : nullptr; j;
        j = j->NextSiblingElement("joint")) {
@@ -48,7 +51,7 @@ void write_urdf_with_mount(const std::string& urdf, const std::string& link, con
     if (!doc.SaveFile(out.c_str())) throw input_error(out, "cannot be written");
     return;
   }
-  throw input_error(urdf, "no joint with child link '" + link + "'");
+  throw input_error(source, "no joint with child link '" + link + "'");
 }
 
 }  // namespace
@@ -89,7 +92,7 @@ int run_calibrate(const CalibrateCommand& cmd) {
   const CellSpec cell = CellSpec::load(
       cmd.cell.empty() ? std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/calibration.yaml" : cmd.cell);
   const PartSpec part = PartSpec::load(cell.part_spec);
-  const RobotModel robot = RobotModel::load(cell.robot_urdf);
+  const RobotModel robot = load_cell_robot(cell);
   const Mesh box = load_mesh(part.mesh_path);
   const MountCalibrationSetting setting = MountCalibrationSetting::for_box(box);
   const CellLayout layout = make_layout(cell, part, {});
@@ -130,7 +133,8 @@ int run_calibrate(const CalibrateCommand& cmd) {
   std::ofstream(cmd.out) << j.dump(1) << '\n';
   if (!cmd.urdf_out.empty()) {
     const RobotLink& l = robot.links()[static_cast<size_t>(robot.require_link(log.lidar_frame))];
-    write_urdf_with_mount(cell.robot_urdf, log.lidar_frame, l.T_parent_joint * cal.delta, cmd.urdf_out);
+    write_urdf_with_mount(cell_robot_urdf(cell), cell.robot_urdf, log.lidar_frame,
+                          l.T_parent_joint * cal.delta, cmd.urdf_out);
     if (!cmd.quiet)
       std::fprintf(stderr, "calibrate: the URDF with the calibrated mount: %s\n", cmd.urdf_out.c_str());
   }

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "core/cell_robot.hpp"
 #include "core/cell_spec.hpp"
 #include "core/error.hpp"
 #include "core/part_spec.hpp"
@@ -65,7 +66,7 @@ nlohmann::json plan_to_json(const WeldPlan& plan, const PartSpec& part, const Ro
 
 int run_plan(const PlanCommand& cmd) {
   const CellSpec cell = CellSpec::load(cell_or_default(cmd.cell));
-  const RobotModel robot = RobotModel::load(cell.robot_urdf);
+  const RobotModel robot = load_cell_robot(cell);
   const PartSpec part = PartSpec::load(cmd.part);
   const Iso3 T_base_part = read_pose(cmd.pose);
   // A part rests on the table: a pose that puts it into the table top, or far above it, is no pose of it.

@@ -12,6 +12,7 @@
 #include "app/plan_command.hpp"
 #include "app/report.hpp"
 #include "app/robot_gate.hpp"
+#include "core/cell_robot.hpp"
 #include "core/cell_spec.hpp"
 #include "core/cloud_io.hpp"
 #include "core/error.hpp"
@@ -64,7 +65,7 @@ int run_job(const RunCommand& cmd) {
   // The cell.
   const CellSpec cell = CellSpec::load(cell_or_default(cmd.cell));
   const PartSpec part = PartSpec::load(cell.part_spec);
-  const RobotModel robot = RobotModel::load(cell.robot_urdf);
+  const RobotModel robot = load_cell_robot(cell);
   const SweepProgram program = SweepProgram::load(cell.sweep_program, robot);
   const Mesh mesh = load_mesh(part.mesh_path);
   LidarSetting lidar;
@@ -322,7 +323,7 @@ int run_job(const RunCommand& cmd) {
 int run_replay(const ReplayCommand& cmd) {
   const CellSpec cell = CellSpec::load(cell_or_default(cmd.cell));
   const PartSpec part = PartSpec::load(cell.part_spec);
-  const RobotModel robot = RobotModel::load(cell.robot_urdf);
+  const RobotModel robot = load_cell_robot(cell);
   const Mesh mesh = load_mesh(part.mesh_path);
   const CellLayout layout = make_layout(cell, part, cmd.seed);
   const MujocoWorld world(cell, part, robot, layout);

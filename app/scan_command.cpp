@@ -6,6 +6,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "core/cell_robot.hpp"
 #include "core/cell_spec.hpp"
 #include "core/cloud_io.hpp"
 #include "core/part_spec.hpp"
@@ -36,7 +37,7 @@ int run_scan(const ScanCommand& cmd) {
   };
   const CellSpec cell = CellSpec::load(cmd.cell);
   const PartSpec part = PartSpec::load(cell.part_spec);
-  const RobotModel robot = RobotModel::load(cell.robot_urdf);
+  const RobotModel robot = load_cell_robot(cell);
   const SweepProgram program = SweepProgram::load(cell.sweep_program, robot);
   LidarSetting lidar;
   lidar.apply(cell.lidar_overrides, cell.source);

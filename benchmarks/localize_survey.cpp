@@ -18,6 +18,7 @@
 #include <thread>
 
 #include "benchmarks/real_scan_check.hpp"
+#include "core/cell_robot.hpp"
 #include "core/cloud_io.hpp"
 #include "core/error.hpp"
 #include "perception/localizer.hpp"
@@ -289,7 +290,7 @@ int main(int argc, char** argv) {
     if (mount_error_mm > 0 || mount_error_deg > 0)
       condition_key += "-mount=" + std::to_string(mount_error_mm) + "," + std::to_string(mount_error_deg);
     if (part_deviation_mm > 0) condition_key += "-deviation=" + std::to_string(part_deviation_mm);
-    const RobotModel robot = RobotModel::load(parts.front().spec.robot_urdf);
+    const RobotModel robot = load_cell_robot(parts.front().spec);
     std::vector<Trial> trials(parts.size() * static_cast<size_t>(layouts));
     std::vector<Iso3> scan_truth_of(trials.size(), Iso3::Identity());
     std::atomic<size_t> next{0}, done{0};

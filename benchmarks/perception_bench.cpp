@@ -14,6 +14,7 @@
 #include <random>
 #include <vector>
 
+#include "core/cell_robot.hpp"
 #include "core/cell_spec.hpp"
 #include "core/geometry.hpp"
 #include "core/part_spec.hpp"
@@ -105,7 +106,7 @@ const pcl::PointCloud<pcl::PointXYZ>::Ptr& voxel_scan() {
     using namespace weldtwin;
     const CellSpec spec = CellSpec::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml");
     const PartSpec part = PartSpec::load(spec.part_spec);
-    const RobotModel robot = RobotModel::load(spec.robot_urdf);
+    const RobotModel robot = load_cell_robot(spec);
     const MujocoWorld world(spec, part, robot, make_layout(spec, part, std::nullopt));
     const SweepResult sweep =
         simulate_sweep(world, robot, SweepProgram::load(spec.sweep_program, robot), LidarSetting());
@@ -213,7 +214,7 @@ const PaperScan& paper_scan(int which) {
       const CellSpec spec =
           CellSpec::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/" + name + ".yaml");
       const PartSpec part = PartSpec::load(spec.part_spec);
-      const RobotModel robot = RobotModel::load(spec.robot_urdf);
+      const RobotModel robot = load_cell_robot(spec);
       const MujocoWorld world(spec, part, robot, make_layout(spec, part, seed));
       LidarSetting lidar;
       lidar.seed = static_cast<uint64_t>(seed);

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "benchmarks/survey_args.hpp"
+#include "core/cell_robot.hpp"
 #include "core/error.hpp"
 #include "planning/weld_planner.hpp"
 #include "sim/cell_layout.hpp"
@@ -26,7 +27,7 @@ int main(int argc, char** argv) {
     for (const std::string& file : cells) {
       const CellSpec spec = CellSpec::load(file);
       const PartSpec part = PartSpec::load(spec.part_spec);
-      const RobotModel robot = RobotModel::load(spec.robot_urdf);
+      const RobotModel robot = load_cell_robot(spec);
       int ok = 0, regrips = 0;
       std::map<std::string, int> refusals;
       std::vector<double> ms;

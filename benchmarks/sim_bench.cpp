@@ -6,6 +6,7 @@
 #include <memory>
 #include <random>
 
+#include "core/cell_robot.hpp"
 #include "core/cell_spec.hpp"
 #include "core/part_spec.hpp"
 #include "planning/weld_planner.hpp"
@@ -21,7 +22,7 @@ namespace {
 struct DefaultCell {
   CellSpec spec = CellSpec::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml");
   PartSpec part = PartSpec::load(spec.part_spec);
-  RobotModel robot = RobotModel::load(spec.robot_urdf);
+  RobotModel robot = load_cell_robot(spec);
   CellLayout layout = make_layout(spec, part, std::nullopt);
   MujocoWorld world{spec, part, robot, layout};
   SweepProgram program = SweepProgram::load(spec.sweep_program, robot);

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "benchmarks/survey_args.hpp"
+#include "core/cell_robot.hpp"
 #include "core/error.hpp"
 #include "perception/scan_assembly.hpp"
 #include "sim/seam_coverage.hpp"
@@ -36,7 +37,7 @@ int main(int argc, char** argv) {
     for (const std::string& file : cells) {
       const CellSpec spec = CellSpec::load(file);
       const PartSpec part = PartSpec::load(spec.part_spec);
-      const RobotModel robot = RobotModel::load(spec.robot_urdf);
+      const RobotModel robot = load_cell_robot(spec);
       const SweepProgram program = SweepProgram::load(spec.sweep_program, robot);
       std::vector<std::vector<double>> seen(part.seams.size()), seen_one(part.seams.size());
       std::vector<double> part_points;

@@ -1,5 +1,7 @@
 #include "core/cell_spec.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <filesystem>
 
 #include "core/error.hpp"
@@ -15,13 +17,120 @@ std::string existing(const std::string& file, const YAML::Node& root, const std:
   return path;
 }
 
+// A length vector from KEY_m, KEY_mm or KEY (metres); zero when none is given.
+Vec3 maybe_length3(const YAML::Node& node, const std::string& key, const std::string& file) {
+  Vec3 v = Vec3::Zero();
+  if (node[key + "_mm"]) v = 1e-3 * yaml::vec3(node, key + "_mm", file);
+  if (node[key + "_m"]) v = yaml::vec3(node, key + "_m", file);
+  if (node[key]) v = yaml::vec3(node, key, file);
+  if (!(v.norm() < 100.0)) throw input_error(file, "field '" + key + "' lies 100 m or more away");
+  return v;
+}
+
+// A frame: xyz_m (or xyz_mm) and rpy_deg (or rpy_rad), both optional.
+UrdfOrigin maybe_origin(const YAML::Node& node, const std::string& file) {
+  UrdfOrigin o;
+  o.xyz_m = maybe_length3(node, "xyz", file);
+  if (node["rpy_deg"]) o.rpy_rad = yaml::vec3(node, "rpy_deg", file) * (kPi / 180.0);
+  if (node["rpy_rad"]) o.rpy_rad = yaml::vec3(node, "rpy_rad", file);
+  if (!(o.rpy_rad.cwiseAbs().maxCoeff() <= 100.0)) throw input_error(file, "field 'rpy' is out of range");
+  return o;
+}
+
+// Names end up in URDF and MJCF text: letters, digits, '_', '-' and '.' only.
+std::string link_name(const YAML::Node& node, const std::string& key, const std::string& file) {
+  const std::string name = yaml::text(node, key, file);
+  const bool ok = !name.empty() && name.size() <= 64 && std::all_of(name.begin(), name.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.';
+  });
+  if (!ok)
+    throw input_error(file, "tooling: '" + key + "' must be 1-64 letters, digits, '_', '-' or '.', got '" +
+                                name.substr(0, 64) + "'");
+  return name;
+}
+
+ToolingShape tooling_shape(const YAML::Node& s, const std::string& file, const std::string& link) {
+  const std::string where = "tooling link '" + link + "': ";
+  if (!s.IsMap()) throw input_error(file, where + "each shape must be a mapping");
+  ToolingShape g;
+  const std::string type = yaml::text(s, "type", file);
+  Vec3 positive;  // the sizes that must be positive
+  if (type == "box") {
+    g.type = LinkGeometry::Type::kBox;
+    g.size_m = positive = maybe_length3(s, "size", file);
+  } else if (type == "cylinder") {
+    g.type = LinkGeometry::Type::kCylinder;
+    g.size_m = Vec3(yaml::length(s, "radius", file), yaml::length(s, "length", file), 0.0);
+    positive = Vec3(g.size_m.x(), g.size_m.y(), 1.0);
+  } else if (type == "sphere") {
+    g.type = LinkGeometry::Type::kSphere;
+    g.size_m = Vec3(yaml::length(s, "radius", file), 0.0, 0.0);
+    positive = Vec3(g.size_m.x(), 1.0, 1.0);
+  } else {
+    throw input_error(file, where + "shape type must be 'box', 'cylinder' or 'sphere', got '" + type + "'");
+  }
+  if (!(positive.array() > 0.0).all() || !(positive.array() < 10.0).all())
+    throw input_error(file, where + "shape sizes must be above 0 and below 10 m");
+  g.origin = maybe_origin(s, file);
+  if (s["rgba"]) {
+    const std::vector<double> c = yaml::numbers(s, "rgba", 4, file);
+    for (int k = 0; k < 4; ++k) {
+      if (!(c[static_cast<size_t>(k)] >= 0.0 && c[static_cast<size_t>(k)] <= 1.0))
+        throw input_error(file, where + "rgba values must lie in [0, 1]");
+      g.rgba[k] = c[static_cast<size_t>(k)];
+    }
+  }
+  return g;
+}
+
+// The robot: a URDF path, or {urdf: PATH, package_dirs: [DIR, ...]}; and the tooling the cell adds to it.
+void parse_robot(const YAML::Node& root, const std::string& file, CellSpec& cell) {
+  const YAML::Node robot = root["robot"];
+  if (robot && robot.IsMap()) {
+    cell.robot_urdf = existing(file, robot, "urdf");
+    if (const YAML::Node dirs = robot["package_dirs"]) {
+      if (!dirs.IsSequence()) throw input_error(file, "robot: 'package_dirs' must list folders");
+      for (const auto& d : dirs) {
+        if (!d.IsScalar()) throw input_error(file, "robot: 'package_dirs' must list folders");
+        const std::string dir = yaml::resolve(file, d.Scalar());
+        if (!std::filesystem::is_directory(dir))
+          throw input_error(file, "robot: package folder '" + dir + "' does not exist");
+        cell.robot_package_dirs.push_back(dir);
+      }
+    }
+  } else {
+    cell.robot_urdf = existing(file, root, "robot");
+  }
+  const YAML::Node tooling = root["tooling"];
+  if (!tooling) return;
+  if (!tooling.IsSequence()) throw input_error(file, "field 'tooling' must list links");
+  constexpr size_t kMaxLinks = 64, kMaxShapes = 64;
+  if (tooling.size() > kMaxLinks) throw input_error(file, "tooling: more than 64 links");
+  for (const auto& t : tooling) {
+    if (!t.IsMap()) throw input_error(file, "tooling: each link must be a mapping (link, parent, ...)");
+    ToolingLink link;
+    link.link = link_name(t, "link", file);
+    link.parent = link_name(t, "parent", file);
+    link.origin = maybe_origin(t, file);
+    link.mass_kg = yaml::maybe_number(t, "mass_kg", file).value_or(0.0);
+    if (!(link.mass_kg >= 0.0 && link.mass_kg < 100.0))
+      throw input_error(file, "tooling link '" + link.link + "': mass_kg must lie in [0, 100)");
+    if (const YAML::Node shapes = t["shapes"]) {
+      if (!shapes.IsSequence() || shapes.size() > kMaxShapes)
+        throw input_error(file, "tooling link '" + link.link + "': 'shapes' must list at most 64 shapes");
+      for (const auto& s : shapes) link.shapes.push_back(tooling_shape(s, file, link.link));
+    }
+    cell.tooling.push_back(std::move(link));
+  }
+}
+
 CellSpec parse(const std::string& file) {
   const YAML::Node root = yaml::load_file(file);
   CellSpec cell;
   cell.source = file;
   cell.name = root["name"] ? yaml::text(root, "name", file) : std::filesystem::path(file).stem().string();
   cell.environment_mjcf = existing(file, root, "environment");
-  cell.robot_urdf = existing(file, root, "robot");
+  parse_robot(root, file, cell);
   cell.sweep_program = existing(file, root, "sweep");
 
   if (const YAML::Node t = root["table"]) {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/geometry.hpp"
+#include "core/robot_model.hpp"  // LinkGeometry
 
 namespace weldtwin {
 
@@ -37,13 +38,43 @@ struct ClutterItem {
   double x_m = 0.0, y_m = 0.0, yaw_rad = 0.0;
 };
 
+/// A frame as URDF writes it: xyz, then roll, pitch, yaw about the fixed x, y, z axes.
+struct UrdfOrigin {
+  Vec3 xyz_m = Vec3::Zero();
+  Vec3 rpy_rad = Vec3::Zero();
+  Iso3 transform() const {
+    return make_transform(xyz_m, rpy_to_matrix(rpy_rad.x(), rpy_rad.y(), rpy_rad.z()));
+  }
+};
+
+/// One shape of a tooling link, used for collision and drawing alike.
+struct ToolingShape {
+  LinkGeometry::Type type = LinkGeometry::Type::kBox;
+  Vec3 size_m =
+      Vec3::Zero();   ///< as LinkGeometry::size: box extents; cylinder (radius, length); sphere radius
+  UrdfOrigin origin;  ///< in the link's frame
+  Eigen::Vector4d rgba{0.12, 0.12, 0.13, 1.0};
+};
+
+/// A fixed link the cell adds to the vendor's robot, URDF-style: the torch, the TCP, the LiDAR and its
+/// bracket, each on its parent link at `origin`.
+struct ToolingLink {
+  std::string link, parent;
+  UrdfOrigin origin;
+  std::vector<ToolingShape> shapes;
+  double mass_kg = 0.0;  ///< spread over the shapes as uniform solids; 0: MuJoCo weighs the shapes as water
+};
+
 struct CellSpec {
   std::string source;  ///< the YAML file
   std::string name;
   std::string environment_mjcf;  ///< resolved path: table, floor, lights, cameras
   std::string robot_urdf;        ///< resolved path
-  std::string sweep_program;     ///< resolved path
-  std::string part_spec;         ///< resolved path
+  std::vector<std::string>
+      robot_package_dirs;            ///< resolved folders where `package://NAME` is also looked for
+  std::vector<ToolingLink> tooling;  ///< added to the robot, parents first
+  std::string sweep_program;         ///< resolved path
+  std::string part_spec;             ///< resolved path
   TableSpec table;
   PlacementSpec placement;
   std::optional<PartPose> part_pose;  ///< unset: drawn from the seed

@@ -3,14 +3,15 @@
 // its samples.
 #include <cstdlib>
 
+#include "core/cell_robot.hpp"
 #include "core/cell_spec.hpp"
 #include "fuzz/fuzz_file.hpp"
 #include "hw/ros_bags.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace weldtwin;
-  static const RobotModel robot = RobotModel::load(
-      CellSpec::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml").robot_urdf);
+  static const RobotModel robot =
+      load_cell_robot(CellSpec::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml"));
   if (size < 1) return 0;
   const int format = data[0] % 3;
   const bool ros2 = format != 0;

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <iterator>
 
+#include "core/cell_robot.hpp"
 #include "core/cell_spec.hpp"
 #include "hw/ros_bags.hpp"
 
@@ -34,8 +35,8 @@ int main(int argc, char** argv) {
     std::ofstream o(out / name, std::ios::binary);
     o << format << std::string(std::istreambuf_iterator<char>(in), {});
   };
-  const weldtwin::RobotModel robot = weldtwin::RobotModel::load(
-      weldtwin::CellSpec::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml").robot_urdf);
+  const weldtwin::RobotModel robot = weldtwin::load_cell_robot(
+      weldtwin::CellSpec::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml"));
   for (const weldtwin::RobotModel* tf : {static_cast<const weldtwin::RobotModel*>(nullptr), &robot}) {
     const std::string name = tf ? "twin_tf" : "twin";
     weldtwin::write_ros1_bag((tmp / "seed.bag").string(), log, 1.7e9, tf);

@@ -57,6 +57,24 @@ std::vector<Vec3> geom_surface_points(int type, const double* size, double spaci
   return pts;
 }
 
+// Points on the surface of a mesh geom (its triangles, each sampled on a grid about `spacing` apart), in the
+// geom's frame: MuJoCo stores a mesh's vertices in the frame of the geoms that use it.
+std::vector<Vec3> mesh_surface_points(const mjModel* m, int mesh, double spacing) {
+  std::vector<Vec3> pts;
+  const float* vert = m->mesh_vert + 3 * m->mesh_vertadr[mesh];
+  const int* face = m->mesh_face + 3 * m->mesh_faceadr[mesh];
+  auto vertex = [&](int i) { return Vec3(vert[3 * i], vert[3 * i + 1], vert[3 * i + 2]); };
+  for (int f = 0; f < m->mesh_facenum[mesh]; ++f) {
+    const Vec3 a = vertex(face[3 * f]), b = vertex(face[3 * f + 1]), c = vertex(face[3 * f + 2]);
+    const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
+    const int n = std::max(1, static_cast<int>(std::ceil(longest / spacing)));
+    for (int i = 0; i <= n; ++i)
+      for (int j = 0; i + j <= n; ++j)
+        pts.push_back(a + (b - a) * (static_cast<double>(i) / n) + (c - a) * (static_cast<double>(j) / n));
+  }
+  return pts;
+}
+
 // A robot geom cut into chunks that are tested as a whole first (one point query for the chunk's centre).
 struct Chunk {
   int geom = 0;
@@ -67,7 +85,10 @@ struct Chunk {
 };
 
 std::vector<Chunk> make_chunks(const mjModel* m, int geom, double spacing, double chunk_m) {
-  const std::vector<Vec3> pts = geom_surface_points(m->geom_type[geom], m->geom_size + 3 * geom, spacing);
+  const std::vector<Vec3> pts =
+      m->geom_type[geom] == mjGEOM_MESH
+          ? mesh_surface_points(m, m->geom_dataid[geom], spacing)
+          : geom_surface_points(m->geom_type[geom], m->geom_size + 3 * geom, spacing);
   std::map<std::array<int, 3>, Chunk> cells;
   for (const Vec3& p : pts) {
     const std::array<int, 3> key{static_cast<int>(std::floor(p.x() / chunk_m)),

@@ -1,5 +1,6 @@
 #include "sim/mujoco_world.hpp"
 
+#include <cctype>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -77,10 +78,42 @@ void geom_xml(std::ostringstream& os, const std::string& name, const LinkGeometr
   os << "/>\n";
 }
 
+// MJCF names the world body "world"; a robot whose root link is so named (the vendor's) gets another.
+std::string body_name(const RobotLink& link) {
+  return link.name == "world" ? "robot_world" : link.name;
+}
+
+std::string mesh_asset_name(const RobotLink& link, size_t k) {
+  return body_name(link) + "_mesh" + std::to_string(k);
+}
+
+// The robot's collision meshes as MJCF assets (MuJoCo reads STL, OBJ and MSH: a link with a mesh in another
+// format is refused naming it).
+std::string robot_mesh_assets(const RobotModel& robot) {
+  std::ostringstream os;
+  XmlNumbers num(os);
+  for (const RobotLink& link : robot.links())
+    for (size_t k = 0; k < link.collision_meshes.size(); ++k) {
+      const LinkMesh& mesh = link.collision_meshes[k];
+      std::string ext = std::filesystem::path(mesh.path).extension().string();
+      for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      if (ext != ".stl" && ext != ".obj" && ext != ".msh")
+        throw input_error(
+            mesh.path,
+            "link '" + link.name + "': MuJoCo reads collision meshes as STL, OBJ or MSH, not '" + ext + "'");
+      const double scale[3] = {mesh.scale.x(), mesh.scale.y(), mesh.scale.z()};
+      os << "<mesh name=\"" << mesh_asset_name(link, k) << "\" file=\""
+         << std::filesystem::absolute(mesh.path).lexically_normal().string() << "\"";
+      num.vec("scale", scale, 3);
+      os << "/>\n";
+    }
+  return os.str();
+}
+
 void robot_body_xml(std::ostringstream& os, const RobotModel& robot, int index) {
   const RobotLink& link = robot.links()[static_cast<size_t>(index)];
   XmlNumbers num(os);
-  os << "<body name=\"" << link.name << "\"";
+  os << "<body name=\"" << body_name(link) << "\"";
   num.pose(link.T_parent_joint);
   os << ">\n";
   if (link.has_inertial && link.inertial.mass_kg > 0.0) {
@@ -110,6 +143,12 @@ void robot_body_xml(std::ostringstream& os, const RobotModel& robot, int index) 
     LinkGeometry geom = link.collision[g];
     if (g < link.visual.size()) geom.rgba = link.visual[g].rgba;
     geom_xml(os, link.name + "_" + std::to_string(g), geom);
+  }
+  for (size_t k = 0; k < link.collision_meshes.size(); ++k) {
+    os << "<geom name=\"" << mesh_asset_name(link, k) << "\" type=\"mesh\" mesh=\""
+       << mesh_asset_name(link, k) << "\"";
+    num.pose(link.collision_meshes[k].T_link_mesh);
+    os << " rgba=\"0.86 0.87 0.88 1\"/>\n";
   }
   for (size_t c = 0; c < robot.links().size(); ++c)
     if (robot.links()[c].parent == index) robot_body_xml(os, robot, static_cast<int>(c));
@@ -248,15 +287,16 @@ std::string compose_cell_mjcf(const CellSpec& cell, const PartSpec& part, const 
   // below a moving body, and the first link hangs from the fixed base.
   for (const RobotLink& link : robot.links())
     if (link.parent >= 0)
-      act << "<exclude body1=\"" << robot.links()[static_cast<size_t>(link.parent)].name << "\" body2=\""
-          << link.name << "\"/>\n";
+      act << "<exclude body1=\"" << body_name(robot.links()[static_cast<size_t>(link.parent)])
+          << "\" body2=\"" << body_name(link) << "\"/>\n";
   act << "</contact>\n";
   const size_t model_end = env.rfind("</mujoco>");
   if (model_end == std::string::npos) throw input_error(cell.environment_mjcf, "MJCF has no </mujoco>");
   env.insert(model_end, act.str());
 
   const std::string mesh = "<mesh name=\"part_mesh\" file=\"" +
-                           std::filesystem::absolute(part.mesh_path).lexically_normal().string() + "\"/>\n";
+                           std::filesystem::absolute(part.mesh_path).lexically_normal().string() + "\"/>\n" +
+                           robot_mesh_assets(robot);
   const size_t asset_end = env.find("</asset>");
   if (asset_end != std::string::npos) {
     env.insert(asset_end, mesh);
@@ -279,7 +319,7 @@ MujocoWorld::MujocoWorld(const CellSpec& cell, const PartSpec& part, const Robot
     if (j < 0) throw std::logic_error("composed cell lost joint " + name);
     qpos_adr_.push_back(m->jnt_qposadr[j]);
   }
-  const int robot_root = body(robot.links().front().name);
+  const int robot_root = body(body_name(robot.links().front()));
   geom_labels_.resize(static_cast<size_t>(m->ngeom), Label::kOther);
   placed_.assign(static_cast<size_t>(m->ngeom), 0);
   const int part_body = body("part");

@@ -6,6 +6,7 @@
 #include <random>
 #include <string>
 
+#include "core/cell_robot.hpp"
 #include "core/cell_spec.hpp"
 #include "core/part_spec.hpp"
 #include "core/robot_model.hpp"
@@ -32,7 +33,7 @@ struct Cell {
   explicit Cell(const std::string& cell_file = "scenes/cells/default.yaml", std::optional<uint64_t> seed = {})
       : spec(CellSpec::load(repo(cell_file))),
         part(PartSpec::load(spec.part_spec)),
-        robot(RobotModel::load(spec.robot_urdf)),
+        robot(load_cell_robot(spec)),
         layout(make_layout(spec, part, seed)),
         world(std::make_unique<MujocoWorld>(spec, part, robot, layout)) {}
 };

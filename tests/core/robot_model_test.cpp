@@ -60,11 +60,11 @@ TEST(RobotModel, LimitsAreTheDatasheetFigures) {
   }
 }
 
-// The vendor's own description (tests/data/aubo_description, as its ROS package ships it): meshes through
+// The vendor's own description (scenes/robots/aubo_description, as its ROS package ships it): meshes through
 // package://, vendor-only elements ignored with a note, its joint limits, and the same kinematic chain as
 // ours: every arm link's pose equal within 1e-9 m and 1e-9 rad at 200 random joint vectors.
 TEST(RobotModel, TheVendorsDescriptionLoadsWithItsMeshesAndLimitsAndOurKinematics) {
-  const std::string urdf = test::repo("tests/data/aubo_description/urdf/aubo_i5.urdf");
+  const std::string urdf = test::repo("scenes/robots/aubo_description/urdf/aubo_i5.urdf");
   const RobotModel vendor = RobotModel::load(urdf);
   const RobotModel ours = RobotModel::load(test::repo("scenes/robots/aubo_i5.urdf"));
   ASSERT_EQ(vendor.joint_names(), ours.joint_names());

@@ -13,6 +13,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
+#include "core/cell_robot.hpp"
 #include "core/cell_spec.hpp"
 #include "hw/json_link.hpp"
 #include "hw/robot_driver.hpp"
@@ -79,8 +80,7 @@ bool same_form(const json& ours, const json& theirs, std::string& why, const std
 }
 
 const RobotModel& robot() {
-  static const RobotModel r =
-      RobotModel::load(CellSpec::load(test::repo("scenes/cells/default.yaml")).robot_urdf);
+  static const RobotModel r = load_cell_robot(CellSpec::load(test::repo("scenes/cells/default.yaml")));
   return r;
 }
 

@@ -21,6 +21,7 @@
 #include <random>
 #include <string>
 
+#include "core/cell_robot.hpp"
 #include "core/cell_spec.hpp"
 #include "core/error.hpp"
 #include "hw/execution_record.hpp"
@@ -218,8 +219,8 @@ int main(int argc, char** argv) {
   app.add_flag("-v", verbose, "a line per run");
   CLI11_PARSE(app, argc, argv);
 
-  const RobotModel robot = RobotModel::load(
-      CellSpec::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml").robot_urdf);
+  const RobotModel robot =
+      load_cell_robot(CellSpec::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml"));
   const std::string scratch =
       std::filesystem::temp_directory_path() / ("driver_soak_" + std::to_string(getpid()));
   std::filesystem::create_directories(scratch);

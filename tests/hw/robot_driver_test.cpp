@@ -10,6 +10,7 @@
 
 #include <atomic>
 
+#include "core/cell_robot.hpp"
 #include "core/error.hpp"
 #include "hw/aubo_protocol.hpp"
 #include "hw/json_link.hpp"
@@ -23,8 +24,7 @@ namespace weldtwin {
 namespace {
 
 const RobotModel& robot() {
-  static const RobotModel r =
-      RobotModel::load(CellSpec::load(test::repo("scenes/cells/default.yaml")).robot_urdf);
+  static const RobotModel r = load_cell_robot(CellSpec::load(test::repo("scenes/cells/default.yaml")));
   return r;
 }
 

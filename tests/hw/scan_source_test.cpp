@@ -15,6 +15,7 @@
 #include <limits>
 #include <map>
 
+#include "core/cell_robot.hpp"
 #include "core/error.hpp"
 #include "hw/mcap.hpp"
 #include "hw/ros_bags.hpp"
@@ -264,8 +265,7 @@ TEST(ScanSource, ARealRplidarRosBagsNoReturnsAreReadAsTheDriverMeansThem) {
   // from our writer are added to a copy, stamped over the same span.
   const std::string real = test::real_data("bags/ros2_rplidar_scans/rosbag2_2025_05_08-14_24_05_0.db3");
   if (!fs::exists(real)) GTEST_SKIP() << "skipped: ../shared/real not found (" << real << ")";
-  const RobotModel robot =
-      RobotModel::load(CellSpec::load(test::repo("scenes/cells/default.yaml")).robot_urdf);
+  const RobotModel robot = load_cell_robot(CellSpec::load(test::repo("scenes/cells/default.yaml")));
   const fs::path d = temp_dir() / "rplidar_ros";
   fs::remove_all(d);
   fs::create_directories(d);

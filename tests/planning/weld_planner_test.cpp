@@ -42,7 +42,7 @@ std::vector<Planned> plans_for_tests() {
     for (int seed = 0; seed <= 12; ++seed) {
       const CellSpec cell = CellSpec::load(test::repo(file));
       const PartSpec part = PartSpec::load(cell.part_spec);
-      const RobotModel robot = RobotModel::load(cell.robot_urdf);
+      const RobotModel robot = load_cell_robot(cell);
       const CellLayout layout =
           seed == 0 ? make_layout(cell, part, std::nullopt) : make_layout(cell, part, seed);
       out.push_back({part, layout.T_base_part, plan_welds(part, layout.T_base_part, robot)});

@@ -1,0 +1,80 @@
+#include "core/cell_robot.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "core/error.hpp"
+#include "tests/test_support.hpp"
+
+namespace weldtwin {
+namespace {
+
+// The vendor's description with the tooling declared in the cell file gives the torch tip and the LiDAR
+// where weldtwin's own URDF (tooling baked in) puts them.
+TEST(CellRobot, VendorUrdfWithCellToolingEqualsOwnUrdf) {
+  const RobotModel own = load_cell_robot(CellSpec::load(test::repo("scenes/cells/default.yaml")));
+  const CellSpec cell = CellSpec::load(test::repo("scenes/cells/vendor_robot.yaml"));
+  ASSERT_EQ(cell.tooling.size(), 4u);
+  const RobotModel vendor = load_cell_robot(cell);
+  EXPECT_NEAR(vendor.upper()[0], 2 * kPi, 1e-12);  // the vendor's limits, not ours
+  EXPECT_FALSE(
+      vendor.links()[static_cast<size_t>(vendor.require_link("upperArm_Link"))].collision_meshes.empty());
+  const RobotLink& torch = vendor.links()[static_cast<size_t>(vendor.require_link("torch"))];
+  ASSERT_EQ(torch.collision.size(), 3u);
+  EXPECT_NEAR(torch.collision[2].size.x(), 0.010, 1e-15);
+  EXPECT_NEAR(torch.inertial.mass_kg, 0.9, 1e-12);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-kPi, kPi);
+  for (int i = 0; i < 100; ++i) {
+    JointVector q;
+    for (int k = 0; k < 6; ++k) q[k] = u(rng);
+    for (const char* link : {"flange", "tcp", "lidar"}) {
+      const Iso3 a = own.forward_kinematics(q, own.require_link(link));
+      const Iso3 b = vendor.forward_kinematics(q, vendor.require_link(link));
+      EXPECT_LT((a.translation() - b.translation()).norm(), 1e-9) << link;
+      EXPECT_LT((a.linear() - b.linear()).norm(), 1e-9) << link;
+    }
+  }
+}
+
+std::string write_cell(const std::string& name, const std::string& tooling) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "weldtwin_cell_robot_test";
+  std::filesystem::create_directories(dir);
+  const std::string scenes = test::repo("scenes");
+  const std::string path = (dir / name).string();
+  std::ofstream(path) << "environment: " << scenes << "/cells/default.xml\n"
+                      << "robot: {urdf: " << scenes << "/robots/aubo_description/urdf/aubo_i5.urdf}\n"
+                      << "sweep: " << scenes << "/sweeps/default.yaml\n"
+                      << "part: {spec: " << scenes << "/parts/tube_on_plate.yaml}\n"
+                      << tooling;
+  return path;
+}
+
+std::string load_error(const std::string& path) {
+  try {
+    load_cell_robot(CellSpec::load(path));
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(CellRobot, ToolingThatDoesNotFitTheRobotIsRefusedNamingTheCell) {
+  const std::string unknown = write_cell("unknown.yaml", "tooling: [{link: torch, parent: wrist9_Link}]\n");
+  EXPECT_NE(load_error(unknown).find("unknown.yaml"), std::string::npos) << load_error(unknown);
+  EXPECT_NE(load_error(unknown).find("parent link 'wrist9_Link'"), std::string::npos) << load_error(unknown);
+  const std::string twice = write_cell("twice.yaml", "tooling: [{link: wrist3_Link, parent: wrist2_Link}]\n");
+  EXPECT_NE(load_error(twice).find("already has a link"), std::string::npos) << load_error(twice);
+  const std::string xml = write_cell("xml.yaml", "tooling: [{link: 'a\"/><x', parent: wrist3_Link}]\n");
+  EXPECT_THROW(CellSpec::load(xml), InputError);
+  const std::string shape = write_cell(
+      "shape.yaml",
+      "tooling: [{link: t, parent: wrist3_Link, shapes: [{type: cylinder, radius_m: -1, length_m: 1}]}]\n");
+  EXPECT_THROW(CellSpec::load(shape), InputError);
+}
+
+}  // namespace
+}  // namespace weldtwin
