@@ -73,26 +73,21 @@ std::string inertial_xml(const ToolingLink& link) {
   if (link.mass_kg <= 0.0 || link.shapes.empty()) return "";
   double total = 0.0;
   Vec3 com = Vec3::Zero();
-  std::vector<double> volumes;
-  for (const ToolingShape& s : link.shapes) {
-    double v = 0.0;
-    Mat3 unit;
-    solid(s, v, unit);
-    volumes.push_back(v);
-    total += v;
-    com += v * s.origin.xyz_m;
+  std::vector<double> volumes(link.shapes.size());
+  std::vector<Mat3> unit(link.shapes.size());
+  for (size_t k = 0; k < link.shapes.size(); ++k) {
+    solid(link.shapes[k], volumes[k], unit[k]);
+    total += volumes[k];
+    com += volumes[k] * link.shapes[k].origin.xyz_m;
   }
   com /= total;
   Mat3 I = Mat3::Zero();
   for (size_t k = 0; k < link.shapes.size(); ++k) {
     const ToolingShape& s = link.shapes[k];
-    double v = 0.0;
-    Mat3 unit;
-    solid(s, v, unit);
     const double m = link.mass_kg * volumes[k] / total;
     const Mat3 R = s.origin.transform().linear();
     const Vec3 r = s.origin.xyz_m - com;
-    I += m * (R * unit * R.transpose()) + m * (r.squaredNorm() * Mat3::Identity() - r * r.transpose());
+    I += m * (R * unit[k] * R.transpose()) + m * (r.squaredNorm() * Mat3::Identity() - r * r.transpose());
   }
   return "<inertial><origin xyz=\"" + triple(com) + "\"/><mass value=\"" + num(link.mass_kg) +
          "\"/><inertia ixx=\"" + num(I(0, 0)) + "\" ixy=\"" + num(I(0, 1)) + "\" ixz=\"" + num(I(0, 2)) +
