@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "sim/mujoco_world.hpp"
 #include "sim/ray_geom.hpp"
 
 namespace weldtwin {
@@ -20,6 +21,7 @@ struct EmbreeScene::Shape {
   double size[3] = {0, 0, 0};
   std::vector<Vec3> vertices;              ///< triangles only, in the part frame
   std::vector<Eigen::Vector3i> triangles;  ///< triangles only
+  RTCScene local = nullptr;                ///< a moving mesh's own triangles, body frame
 };
 
 struct EmbreeScene::MovingBody {
@@ -212,6 +214,55 @@ double bounding_radius(const EmbreeScene::Shape& s) {
   }
 }
 
+// The shape's triangles as an Embree geometry (float vertices; hits are refined in double afterwards).
+RTCGeometry triangle_geometry(RTCDevice device, const EmbreeScene::Shape& s) {
+  RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                        3 * sizeof(float), s.vertices.size()));
+  for (size_t k = 0; k < s.vertices.size(); ++k)
+    for (int c = 0; c < 3; ++c) v[3 * k + static_cast<size_t>(c)] = static_cast<float>(s.vertices[k][c]);
+  auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                             3 * sizeof(unsigned), s.triangles.size()));
+  for (size_t k = 0; k < s.triangles.size(); ++k)
+    for (int c = 0; c < 3; ++c)
+      idx[3 * k + static_cast<size_t>(c)] = static_cast<unsigned>(s.triangles[k][c]);
+  return geom;
+}
+
+// One ray through an Embree scene; the context carries it in double for user geometry.
+RTCRayHit embree_cast(RTCScene scene, const Vec3& origin, const Vec3& dir, double t_min, double t_max) {
+  Context ctx;
+  rtcInitIntersectContext(&ctx.embree);
+  ctx.origin = origin;
+  ctx.dir = dir;
+  RTCRayHit rh;
+  rh.ray.org_x = static_cast<float>(origin.x());
+  rh.ray.org_y = static_cast<float>(origin.y());
+  rh.ray.org_z = static_cast<float>(origin.z());
+  rh.ray.dir_x = static_cast<float>(dir.x());
+  rh.ray.dir_y = static_cast<float>(dir.y());
+  rh.ray.dir_z = static_cast<float>(dir.z());
+  rh.ray.tnear = static_cast<float>(t_min);
+  rh.ray.tfar = static_cast<float>(t_max);
+  rh.ray.mask = 0xFFFFFFFF;
+  rh.ray.flags = 0;
+  rh.ray.time = 0.0f;
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(scene, &ctx.embree, &rh);
+  return rh;
+}
+
+// Embree's float hit on a shape refined in double on the exact geometry; the float hit decides only which
+// primitive was hit. A grazing hit the exact test rejects by a hair keeps Embree's distance.
+double refine_hit(const EmbreeScene::Shape& s, const RTCRayHit& rh, const Vec3& o, const Vec3& d,
+                  double t_min, Vec3* n) {
+  const double t = intersect_shape(s, static_cast<int>(rh.hit.primID), o, d, t_min, n);
+  if (t >= 0.0) return t;
+  *n = Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z).normalized();
+  return rh.ray.tfar;
+}
+
 }  // namespace
 
 EmbreeScene::EmbreeScene(const mjModel* m, const mjData* d, const std::function<bool(int geom)>& include) {
@@ -221,7 +272,7 @@ EmbreeScene::EmbreeScene(const mjModel* m, const mjData* d, const std::function<
 
   std::vector<int> moving_of_body(static_cast<size_t>(m->nbody), -1);
   for (int g = 0; g < m->ngeom; ++g) {
-    if (include && !include(g)) continue;
+    if ((include && !include(g)) || collision_only(m, g)) continue;
     if (m->geom_type[g] == mjGEOM_HFIELD)
       throw std::runtime_error("Embree scene: height fields are not supported");
     const int body = m->geom_bodyid[g];
@@ -235,6 +286,14 @@ EmbreeScene::EmbreeScene(const mjModel* m, const mjData* d, const std::function<
     s->T_geom_part = s->T_part_geom.inverse();
     if (s->type == mjGEOM_MESH || (is_static && s->type == mjGEOM_BOX)) triangulate(m, g, *s);
     if (!is_static) {
+      if (!s->triangles.empty()) {
+        s->local = rtcNewScene(device_);
+        RTCGeometry geom = triangle_geometry(device_, *s);
+        rtcCommitGeometry(geom);
+        rtcAttachGeometry(s->local, geom);
+        rtcReleaseGeometry(geom);
+        rtcCommitScene(s->local);
+      }
       int& k = moving_of_body[static_cast<size_t>(body)];
       if (k < 0) {
         k = static_cast<int>(moving_.size());
@@ -246,16 +305,7 @@ EmbreeScene::EmbreeScene(const mjModel* m, const mjData* d, const std::function<
     }
     RTCGeometry geom;
     if (!s->triangles.empty()) {
-      geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
-      auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(
-          geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), s->vertices.size()));
-      for (size_t k = 0; k < s->vertices.size(); ++k)
-        for (int c = 0; c < 3; ++c) v[3 * k + static_cast<size_t>(c)] = static_cast<float>(s->vertices[k][c]);
-      auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-          geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), s->triangles.size()));
-      for (size_t k = 0; k < s->triangles.size(); ++k)
-        for (int c = 0; c < 3; ++c)
-          idx[3 * k + static_cast<size_t>(c)] = static_cast<unsigned>(s->triangles[k][c]);
+      geom = triangle_geometry(device_, *s);
       triangles_ += s->triangles.size();
     } else {
       geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
@@ -286,6 +336,9 @@ EmbreeScene::EmbreeScene(const mjModel* m, const mjData* d, const std::function<
 }
 
 EmbreeScene::~EmbreeScene() {
+  for (MovingBody& b : moving_)
+    for (Shape& s : b.shapes)
+      if (s.local) rtcReleaseScene(s.local);
   rtcReleaseScene(static_);
   rtcReleaseDevice(device_);
 }
@@ -361,37 +414,12 @@ void EmbreeScene::View::restrict_to_plane(const Vec3& origin, const Vec3& normal
 RayHit EmbreeScene::View::cast(const Vec3& origin, const Vec3& dir, double t_min, double t_max) const {
   RayHit out;
   // The static world through Embree.
-  Context ctx;
-  rtcInitIntersectContext(&ctx.embree);
-  ctx.origin = origin;
-  ctx.dir = dir;
-  RTCRayHit rh;
-  rh.ray.org_x = static_cast<float>(origin.x());
-  rh.ray.org_y = static_cast<float>(origin.y());
-  rh.ray.org_z = static_cast<float>(origin.z());
-  rh.ray.dir_x = static_cast<float>(dir.x());
-  rh.ray.dir_y = static_cast<float>(dir.y());
-  rh.ray.dir_z = static_cast<float>(dir.z());
-  rh.ray.tnear = static_cast<float>(t_min);
-  rh.ray.tfar = static_cast<float>(t_max);
-  rh.ray.mask = 0xFFFFFFFF;
-  rh.ray.flags = 0;
-  rh.ray.time = 0.0f;
-  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect1(scene_.static_, &ctx.embree, &rh);
+  const RTCRayHit rh = embree_cast(scene_.static_, origin, dir, t_min, t_max);
   double best = t_max;
   if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
     const Shape& shape = *scene_.static_shapes_[rh.hit.geomID];
-    // Refine in double on the exact geometry; the float hit decides only which primitive was hit.
     Vec3 n;
-    double t = intersect_shape(shape, static_cast<int>(rh.hit.primID), origin, dir, t_min, &n);
-    if (t < 0.0) {
-      // A float-precision grazing hit the exact test rejects by a hair: keep Embree's distance.
-      t = rh.ray.tfar;
-      n = Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z).normalized();
-    }
-    out.distance_m = best = t;
+    out.distance_m = best = refine_hit(shape, rh, origin, dir, t_min, &n);
     out.geom = shape.geom;
     out.normal = n;
   }
@@ -417,14 +445,8 @@ RayHit EmbreeScene::View::cast(const Vec3& origin, const Vec3& dir, double t_min
       if (s.triangles.empty()) {
         t = intersect_shape(s, 0, o, d, t_min, &n);
       } else {
-        for (size_t f = 0; f < s.triangles.size(); ++f) {
-          Vec3 nk;
-          const double tk = intersect_shape(s, static_cast<int>(f), o, d, t_min, &nk);
-          if (tk >= 0.0 && (t < 0.0 || tk < t)) {
-            t = tk;
-            n = nk;
-          }
-        }
+        const RTCRayHit lh = embree_cast(s.local, o, d, t_min, best);
+        if (lh.hit.geomID != RTC_INVALID_GEOMETRY_ID) t = refine_hit(s, lh, o, d, t_min, &n);
       }
       if (t >= 0.0 && t < best) {
         out.distance_m = best = t;

@@ -1,8 +1,9 @@
 // The cell for LiDAR ray casting. Geoms fixed to the world go into one Embree scene, built once: boxes and
 // meshes as triangles, planes, spheres, capsules, cylinders and ellipsoids as exact user geometry. Geoms of
-// moving bodies (the arm) are few primitives; each View (one per thread) poses them from an mjData and tests
-// them exactly behind a bounding sphere per body, so moving the arm costs no Embree rebuild and threads never
-// wait on each other. Every hit distance is computed or refined in double precision on the exact geom, so
+// moving bodies (the arm) are primitives, tested exactly, and meshes, each in a small Embree scene of its own
+// in its body's frame; each View (one per thread) poses them from an mjData and tests them behind a bounding
+// sphere per body and per geom, so moving the arm costs no Embree rebuild and threads never wait on each
+// other. Every hit distance is computed or refined in double precision on the exact geom, so
 // distances match mj_ray.
 #pragma once
 

@@ -10,7 +10,9 @@
 #include <stdexcept>
 
 #include "core/error.hpp"
+#include "core/mesh_file.hpp"
 #include "sim/contact_prefilter.hpp"
+#include "sim/convex_pieces.hpp"
 
 namespace weldtwin {
 namespace {
@@ -87,30 +89,63 @@ std::string mesh_asset_name(const RobotLink& link, size_t k) {
   return body_name(link) + "_mesh" + std::to_string(k);
 }
 
-// The robot's collision meshes as MJCF assets (MuJoCo reads STL, OBJ and MSH: a link with a mesh in another
-// format is refused naming it).
-std::string robot_mesh_assets(const RobotModel& robot) {
-  std::ostringstream os;
-  XmlNumbers num(os);
-  for (const RobotLink& link : robot.links())
-    for (size_t k = 0; k < link.collision_meshes.size(); ++k) {
-      const LinkMesh& mesh = link.collision_meshes[k];
+std::string hull_asset_name(const RobotLink& link, size_t k, size_t piece) {
+  return mesh_asset_name(link, k) + "_hull" + std::to_string(piece);
+}
+
+// Per link, per collision mesh: the convex pieces MuJoCo collides in its place (mesh frame, scaled).
+using MeshPieces = std::vector<std::vector<std::vector<std::vector<Vec3>>>>;
+
+// The robot's collision meshes, each read and cut into convex pieces (MuJoCo draws the file itself, and
+// reads STL and OBJ: a link with a mesh in another format is refused naming it).
+MeshPieces robot_mesh_pieces(const RobotModel& robot) {
+  MeshPieces out;
+  for (const RobotLink& link : robot.links()) {
+    out.emplace_back();
+    for (const LinkMesh& mesh : link.collision_meshes) {
       std::string ext = std::filesystem::path(mesh.path).extension().string();
       for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-      if (ext != ".stl" && ext != ".obj" && ext != ".msh")
-        throw input_error(
-            mesh.path,
-            "link '" + link.name + "': MuJoCo reads collision meshes as STL, OBJ or MSH, not '" + ext + "'");
+      if (ext != ".stl" && ext != ".obj")
+        throw input_error(mesh.path, "link '" + link.name +
+                                         "': collision meshes are read as STL or OBJ, not '" + ext + "'");
+      Mesh m = load_mesh(mesh.path);
+      for (Vec3& v : m.vertices) v = v.cwiseProduct(mesh.scale);
+      out.back().push_back(convex_pieces(m));
+      if (out.back().back().empty())
+        throw input_error(mesh.path, "link '" + link.name + "': the mesh has no volume");
+    }
+  }
+  return out;
+}
+
+// The meshes as MJCF assets: the file (drawn, ray-cast, and the part's clearance measured on it) and its
+// pieces' points (MuJoCo collides their hulls).
+std::string robot_mesh_assets(const RobotModel& robot, const MeshPieces& pieces) {
+  std::ostringstream os;
+  XmlNumbers num(os);
+  for (size_t l = 0; l < robot.links().size(); ++l) {
+    const RobotLink& link = robot.links()[l];
+    for (size_t k = 0; k < link.collision_meshes.size(); ++k) {
+      const LinkMesh& mesh = link.collision_meshes[k];
       const double scale[3] = {mesh.scale.x(), mesh.scale.y(), mesh.scale.z()};
       os << "<mesh name=\"" << mesh_asset_name(link, k) << "\" file=\""
          << std::filesystem::absolute(mesh.path).lexically_normal().string() << "\"";
       num.vec("scale", scale, 3);
       os << "/>\n";
+      const auto& hulls = pieces[l][k];
+      for (size_t p = 0; p < hulls.size(); ++p) {
+        std::vector<double> xyz;
+        for (const Vec3& v : hulls[p]) xyz.insert(xyz.end(), {v.x(), v.y(), v.z()});
+        os << "<mesh name=\"" << hull_asset_name(link, k, p) << "\"";
+        num.vec("vertex", xyz.data(), static_cast<int>(xyz.size()));
+        os << "/>\n";
+      }
     }
+  }
   return os.str();
 }
 
-void robot_body_xml(std::ostringstream& os, const RobotModel& robot, int index) {
+void robot_body_xml(std::ostringstream& os, const RobotModel& robot, const MeshPieces& pieces, int index) {
   const RobotLink& link = robot.links()[static_cast<size_t>(index)];
   XmlNumbers num(os);
   os << "<body name=\"" << body_name(link) << "\"";
@@ -144,14 +179,21 @@ void robot_body_xml(std::ostringstream& os, const RobotModel& robot, int index) 
     if (g < link.visual.size()) geom.rgba = link.visual[g].rgba;
     geom_xml(os, link.name + "_" + std::to_string(g), geom);
   }
+  // A mesh is drawn and ray-cast as it is; MuJoCo collides its convex pieces (kCollisionOnlyGroup).
   for (size_t k = 0; k < link.collision_meshes.size(); ++k) {
     os << "<geom name=\"" << mesh_asset_name(link, k) << "\" type=\"mesh\" mesh=\""
-       << mesh_asset_name(link, k) << "\"";
+       << mesh_asset_name(link, k) << "\" contype=\"0\" conaffinity=\"0\"";
     num.pose(link.collision_meshes[k].T_link_mesh);
     os << " rgba=\"0.86 0.87 0.88 1\"/>\n";
+    for (size_t p = 0; p < pieces[static_cast<size_t>(index)][k].size(); ++p) {
+      os << "<geom name=\"" << hull_asset_name(link, k, p) << "\" type=\"mesh\" mesh=\""
+         << hull_asset_name(link, k, p) << "\" group=\"" << kCollisionOnlyGroup << "\"";
+      num.pose(link.collision_meshes[k].T_link_mesh);
+      os << " rgba=\"0.9 0.5 0.2 0.4\"/>\n";
+    }
   }
   for (size_t c = 0; c < robot.links().size(); ++c)
-    if (robot.links()[c].parent == index) robot_body_xml(os, robot, static_cast<int>(c));
+    if (robot.links()[c].parent == index) robot_body_xml(os, robot, pieces, static_cast<int>(c));
   os << "</body>\n";
 }
 
@@ -266,7 +308,8 @@ std::string compose_cell_mjcf(const CellSpec& cell, const PartSpec& part, const 
 
   std::ostringstream bodies;
   bodies << "<!-- added by weldtwin from " << cell.source << " -->\n";
-  robot_body_xml(bodies, robot, 0);
+  const MeshPieces pieces = robot_mesh_pieces(robot);
+  robot_body_xml(bodies, robot, pieces, 0);
   XmlNumbers num(bodies);
   bodies << "<body name=\"part\"";
   num.pose(layout.T_base_part);
@@ -296,7 +339,7 @@ std::string compose_cell_mjcf(const CellSpec& cell, const PartSpec& part, const 
 
   const std::string mesh = "<mesh name=\"part_mesh\" file=\"" +
                            std::filesystem::absolute(part.mesh_path).lexically_normal().string() + "\"/>\n" +
-                           robot_mesh_assets(robot);
+                           robot_mesh_assets(robot, pieces);
   const size_t asset_end = env.find("</asset>");
   if (asset_end != std::string::npos) {
     env.insert(asset_end, mesh);

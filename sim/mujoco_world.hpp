@@ -18,6 +18,14 @@ namespace weldtwin {
 enum class Label : uint8_t { kNone = 0, kPart = 1, kTable = 2, kClamp = 3, kRobot = 4, kOther = 5 };
 const char* label_name(Label label);
 
+/// The geom group of shapes MuJoCo collides but nobody draws or ray-casts: the convex pieces of a robot
+/// link's mesh, which stands for them in pictures, scans and the part's clearance. MuJoCo's viewers hide
+/// groups from 3 on by default.
+constexpr int kCollisionOnlyGroup = 3;
+inline bool collision_only(const mjModel* m, int geom) {
+  return m->geom_group[geom] == kCollisionOnlyGroup;
+}
+
 /// Installs MuJoCo error/warning handlers that throw / collect instead of waiting for Enter and writing
 /// MUJOCO_LOG.TXT. Idempotent; called by every function here that touches MuJoCo.
 void install_mujoco_handlers();
