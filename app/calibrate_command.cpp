@@ -2,6 +2,7 @@
 
 #include <tinyxml.h>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -30,12 +31,29 @@ Vec3 rpy_deg(const Mat3& R) {
 // Writes `urdf` again with the origin of the joint whose child is `link` replaced by `origin`; every other
 // element as it was (parsed and written by TinyXML, which urdfdom reads with).
 // Writes the robot's URDF (`urdf_xml`, read from `source`) with the joint of `link` moved to `origin`.
-void write_urdf_with_mount(const std::string& urdf_xml, const std::string& source, const std::string& link,
+// Every mesh the URDF names, rewritten as its absolute path: the file written elsewhere still finds them.
+void absolute_mesh_paths(TiXmlElement* robot, const std::string& source,
+                         const std::vector<std::string>& dirs) {
+  for (TiXmlElement* l = robot->FirstChildElement("link"); l; l = l->NextSiblingElement("link"))
+    for (const char* kind : {"visual", "collision"})
+      for (TiXmlElement* e = l->FirstChildElement(kind); e; e = e->NextSiblingElement(kind)) {
+        TiXmlElement* g = e->FirstChildElement("geometry");
+        TiXmlElement* mesh = g ? g->FirstChildElement("mesh") : nullptr;
+        if (!mesh || !mesh->Attribute("filename")) continue;
+        const std::string file = mesh_file(mesh->Attribute("filename"), source,
+                                           l->Attribute("name") ? l->Attribute("name") : "", dirs);
+        mesh->SetAttribute("filename", std::filesystem::absolute(file).lexically_normal().string());
+      }
+}
+
+void write_urdf_with_mount(const std::string& urdf_xml, const std::string& source,
+                           const std::vector<std::string>& package_dirs, const std::string& link,
                            const Iso3& origin, const std::string& out) {
   TiXmlDocument doc;
   doc.Parse(urdf_xml.c_str());
   if (doc.Error()) throw input_error(source, "cannot be read as XML");
   TiXmlElement* robot = doc.FirstChildElement("robot");
+  if (robot) absolute_mesh_paths(robot, source, package_dirs);
   for (TiXmlElement* j = robot ? robot->FirstChildElement("joint") : nullptr; j;
        j = j->NextSiblingElement("joint")) {
     const TiXmlElement* child = j->FirstChildElement("child");
@@ -133,7 +151,7 @@ int run_calibrate(const CalibrateCommand& cmd) {
   std::ofstream(cmd.out) << j.dump(1) << '\n';
   if (!cmd.urdf_out.empty()) {
     const RobotLink& l = robot.links()[static_cast<size_t>(robot.require_link(log.lidar_frame))];
-    write_urdf_with_mount(cell_robot_urdf(cell), cell.robot_urdf, log.lidar_frame,
+    write_urdf_with_mount(cell_robot_urdf(cell), cell.robot_urdf, cell.robot_package_dirs, log.lidar_frame,
                           l.T_parent_joint * cal.delta, cmd.urdf_out);
     if (!cmd.quiet)
       std::fprintf(stderr, "calibrate: the URDF with the calibrated mount: %s\n", cmd.urdf_out.c_str());

@@ -83,29 +83,28 @@ ToolingShape tooling_shape(const YAML::Node& s, const std::string& file, const s
   return g;
 }
 
-// The robot: a URDF path, or {urdf: PATH, package_dirs: [DIR, ...]}; and the tooling the cell adds to it.
-void parse_robot(const YAML::Node& root, const std::string& file, CellSpec& cell) {
-  const YAML::Node robot = root["robot"];
-  if (robot && robot.IsMap()) {
-    cell.robot_urdf = existing(file, robot, "urdf");
-    if (const YAML::Node dirs = robot["package_dirs"]) {
-      if (!dirs.IsSequence()) throw input_error(file, "robot: 'package_dirs' must list folders");
-      for (const auto& d : dirs) {
-        if (!d.IsScalar()) throw input_error(file, "robot: 'package_dirs' must list folders");
-        const std::string dir = yaml::resolve(file, d.Scalar());
-        if (!std::filesystem::is_directory(dir))
-          throw input_error(file, "robot: package folder '" + dir + "' does not exist");
-        cell.robot_package_dirs.push_back(dir);
-      }
+// urdf: PATH and package_dirs: [DIR, ...] of a robot mapping (in a cell or a robot file).
+void parse_urdf_ref(const YAML::Node& robot, const std::string& file, CellSpec& cell) {
+  cell.robot_urdf = existing(file, robot, "urdf");
+  if (const YAML::Node dirs = robot["package_dirs"]) {
+    if (!dirs.IsSequence()) throw input_error(file, "robot: 'package_dirs' must list folders");
+    for (const auto& d : dirs) {
+      if (!d.IsScalar()) throw input_error(file, "robot: 'package_dirs' must list folders");
+      const std::string dir = yaml::resolve(file, d.Scalar());
+      if (!std::filesystem::is_directory(dir))
+        throw input_error(file, "robot: package folder '" + dir + "' does not exist");
+      cell.robot_package_dirs.push_back(dir);
     }
-  } else {
-    cell.robot_urdf = existing(file, root, "robot");
   }
-  const YAML::Node tooling = root["tooling"];
+}
+
+// Tooling links, appended to the cell's.
+void parse_tooling(const YAML::Node& tooling, const std::string& file, CellSpec& cell) {
   if (!tooling) return;
   if (!tooling.IsSequence()) throw input_error(file, "field 'tooling' must list links");
   constexpr size_t kMaxLinks = 64, kMaxShapes = 64;
-  if (tooling.size() > kMaxLinks) throw input_error(file, "tooling: more than 64 links");
+  if (cell.tooling.size() + tooling.size() > kMaxLinks)
+    throw input_error(file, "tooling: more than 64 links");
   for (const auto& t : tooling) {
     if (!t.IsMap()) throw input_error(file, "tooling: each link must be a mapping (link, parent, ...)");
     ToolingLink link;
@@ -122,6 +121,33 @@ void parse_robot(const YAML::Node& root, const std::string& file, CellSpec& cell
     }
     cell.tooling.push_back(std::move(link));
   }
+}
+
+bool is_yaml_path(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext == ".yaml" || ext == ".yml";
+}
+
+// The robot: a URDF path; {urdf: PATH, package_dirs: [DIR, ...]}; or a robot file (YAML: urdf, package_dirs,
+// tooling; paths relative to it) that cells share. Then the tooling the cell itself adds.
+void parse_robot(const YAML::Node& root, const std::string& file, CellSpec& cell) {
+  const YAML::Node robot = root["robot"];
+  if (robot && robot.IsMap()) {
+    parse_urdf_ref(robot, file, cell);
+  } else {
+    const std::string path = existing(file, root, "robot");
+    if (is_yaml_path(path)) {
+      const YAML::Node robot_file = yaml::load_file(path);
+      if (!robot_file.IsMap())
+        throw input_error(path, "a robot file is a mapping: urdf, package_dirs, tooling");
+      parse_urdf_ref(robot_file, path, cell);
+      parse_tooling(robot_file["tooling"], path, cell);
+    } else {
+      cell.robot_urdf = path;
+    }
+  }
+  parse_tooling(root["tooling"], file, cell);
 }
 
 CellSpec parse(const std::string& file) {

@@ -145,7 +145,8 @@ std::string package_folder(const std::string& name, const std::filesystem::path&
   return "";
 }
 
-// A mesh's file as the URDF names it (package://, file:// or a path), resolved and checked to exist.
+}  // namespace
+
 std::string mesh_file(const std::string& filename, const std::string& source, const std::string& link,
                       const std::vector<std::string>& package_dirs) {
   namespace fs = std::filesystem;
@@ -172,6 +173,8 @@ std::string mesh_file(const std::string& filename, const std::string& source, co
     throw input_error(source, "link '" + link + "': mesh " + filename + " is not there (" + path + ")");
   return path;
 }
+
+namespace {
 
 LinkMesh to_mesh(const urdf::GeometrySharedPtr& g, const urdf::Pose& origin, const std::string& source,
                  const std::string& link, const std::vector<std::string>& package_dirs) {

@@ -22,6 +22,12 @@ struct LinkGeometry {
   Eigen::Vector4d rgba{0.7, 0.7, 0.7, 1.0};
 };
 
+/// A mesh's file as a URDF names it (`package://NAME/...`, `file://...` or a path relative to the URDF at
+/// `source`), resolved as RobotModel::load resolves it; throws InputError naming `source` and `link` when
+/// the package or the file is not there.
+std::string mesh_file(const std::string& filename, const std::string& source, const std::string& link,
+                      const std::vector<std::string>& package_dirs = {});
+
 /// A mesh of a link (the vendor's descriptions give meshes where ours give primitives), in the link frame.
 struct LinkMesh {
   std::string path;  ///< the file, resolved: `package://NAME/...` through the folder of package NAME

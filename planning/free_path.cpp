@@ -17,6 +17,8 @@ std::vector<JointVector> free_joint_path(const JointVector& a, const JointVector
                                          double resolution_rad, double max_seconds) {
   namespace ob = ompl::base;
   namespace og = ompl::geometric;
+  // An end in collision has no path: answered at once, not after max_seconds of sampling.
+  if (!is_free(a) || !is_free(b)) return {};
   // OMPL seeds every sampler it makes from one process-wide sequence: it starts over at every call (OMPL
   // complains when it is restarted; quiet), so that the same question gets the same answer whatever was asked
   // before in the process — a worker of `weldtwin bench` runs one trial after another. One call at a time.
@@ -28,9 +30,11 @@ std::vector<JointVector> free_joint_path(const JointVector& a, const JointVector
   const int n = static_cast<int>(a.size());
   auto space = std::make_shared<ob::RealVectorStateSpace>(static_cast<unsigned>(n));
   ob::RealVectorBounds bounds(static_cast<unsigned>(n));
+  // A transit needs no more than half a turn of a joint beyond its two ends: the space searched is no
+  // wider (a vendor's +-360 deg joints would make it 2^6 times the volume of +-180 deg ones).
   for (int j = 0; j < n; ++j) {
-    bounds.setLow(static_cast<unsigned>(j), lower[j]);
-    bounds.setHigh(static_cast<unsigned>(j), upper[j]);
+    bounds.setLow(static_cast<unsigned>(j), std::max(lower[j], std::min(a[j], b[j]) - kPi));
+    bounds.setHigh(static_cast<unsigned>(j), std::min(upper[j], std::max(a[j], b[j]) + kPi));
   }
   space->setBounds(bounds);
   og::SimpleSetup setup(space);

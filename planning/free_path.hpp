@@ -11,7 +11,9 @@
 namespace weldtwin {
 
 /// Waypoints from `a` to `b` (both included) whose straight joint-space segments are free according to
-/// `is_free`, checked every `resolution_rad`; empty when none is found within `max_seconds`.
+/// `is_free`, checked every `resolution_rad`; empty when none is found within `max_seconds`, and at once
+/// when `a` or `b` is not free. Each joint is searched within `lower`..`upper` and no more than half a turn
+/// beyond the two ends.
 std::vector<JointVector> free_joint_path(const JointVector& a, const JointVector& b, const JointVector& lower,
                                          const JointVector& upper,
                                          const std::function<bool(const JointVector&)>& is_free,

@@ -28,7 +28,20 @@ Frame frame_of(const mjModel* m, const mjData* d, int g) {
   for (int k = 0; k < 3; ++k)
     for (int r = 0; r < 3; ++r) f.ax[k][r] = x[3 * r + k];  // row-major: column k is axis k
   const mjtNum* s = m->geom_size + 3 * g;
-  if (m->geom_type[g] == mjGEOM_CYLINDER) {
+  if (m->geom_type[g] == mjGEOM_MESH) {
+    // The box round the mesh's vertices in the geom frame (MuJoCo keeps them so), its centre off the origin.
+    const int mesh = m->geom_dataid[g];
+    const float* v = m->mesh_vert + 3 * m->mesh_vertadr[mesh];
+    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+    for (int i = 0; i < m->mesh_vertnum[mesh]; ++i)
+      for (int k = 0; k < 3; ++k)
+        lo[k] = std::min(lo[k], double(v[3 * i + k])), hi[k] = std::max(hi[k], double(v[3 * i + k]));
+    for (int k = 0; k < 3; ++k) {
+      f.half[k] = 0.5 * (hi[k] - lo[k]) + 1e-7;  // float vertices
+      const double mid = 0.5 * (hi[k] + lo[k]);
+      for (int r = 0; r < 3; ++r) f.c[r] += mid * f.ax[k][r];
+    }
+  } else if (m->geom_type[g] == mjGEOM_CYLINDER) {
     f.half[0] = f.half[1] = s[0];
     f.half[2] = s[1];
   } else {
@@ -113,24 +126,39 @@ bool separated(const Frame& A, const Frame& B, double margin) {
   return false;
 }
 
-mjfCollision mujoco_cylinder_cylinder = nullptr, mujoco_cylinder_box = nullptr;
+// MuJoCo's own functions for the pairs given an early-out, saved before the table is changed.
+mjfCollision mujoco_function[mjNGEOMTYPES][mjNGEOMTYPES] = {};
+
+mjfCollision original(const mjModel* m, int g1, int g2) {
+  return mujoco_function[m->geom_type[g1]][m->geom_type[g2]];
+}
 
 int cylinder_cylinder(const mjModel* m, const mjData* d, mjContact* con, int g1, int g2, mjtNum margin) {
   if (cylinder_capsule_gap(m, d, g1, g2) > margin + kSlack || boxes_separated(m, d, g1, g2, margin)) return 0;
-  return mujoco_cylinder_cylinder(m, d, con, g1, g2, margin);
+  return original(m, g1, g2)(m, d, con, g1, g2, margin);
 }
 
-int cylinder_box(const mjModel* m, const mjData* d, mjContact* con, int g1, int g2, mjtNum margin) {
+// Cylinder-box, and a mesh (the convex pieces of the arm's links) against a cylinder, a box or a mesh.
+int boxed_pair(const mjModel* m, const mjData* d, mjContact* con, int g1, int g2, mjtNum margin) {
   if (boxes_separated(m, d, g1, g2, margin)) return 0;
-  return mujoco_cylinder_box(m, d, con, g1, g2, margin);
+  return original(m, g1, g2)(m, d, con, g1, g2, margin);
 }
 
-// MuJoCo's table entries for the two pairs: the early-outs (on) or its own functions.
+struct Pair {
+  int type1, type2;
+  mjfCollision early_out;
+};
+constexpr Pair kPairs[] = {{mjGEOM_CYLINDER, mjGEOM_CYLINDER, cylinder_cylinder},
+                           {mjGEOM_CYLINDER, mjGEOM_BOX, boxed_pair},
+                           {mjGEOM_CYLINDER, mjGEOM_MESH, boxed_pair},
+                           {mjGEOM_BOX, mjGEOM_MESH, boxed_pair},
+                           {mjGEOM_MESH, mjGEOM_MESH, boxed_pair}};
+
+// MuJoCo's table entries for the pairs: the early-outs (on) or its own functions.
 void point_table(bool on) {
-  if (mujoco_cylinder_cylinder)
-    mjCOLLISIONFUNC[mjGEOM_CYLINDER][mjGEOM_CYLINDER] = on ? cylinder_cylinder : mujoco_cylinder_cylinder;
-  if (mujoco_cylinder_box)
-    mjCOLLISIONFUNC[mjGEOM_CYLINDER][mjGEOM_BOX] = on ? cylinder_box : mujoco_cylinder_box;
+  for (const Pair& p : kPairs)
+    if (mujoco_function[p.type1][p.type2])
+      mjCOLLISIONFUNC[p.type1][p.type2] = on ? p.early_out : mujoco_function[p.type1][p.type2];
 }
 
 }  // namespace
@@ -166,16 +194,13 @@ mjfCollision prefiltered_collision_function(int type1, int type2) {
 
 mjfCollision mujoco_collision_function(int type1, int type2) {
   install_contact_prefilter();
-  if (type1 == mjGEOM_CYLINDER && type2 == mjGEOM_CYLINDER) return mujoco_cylinder_cylinder;
-  if (type1 == mjGEOM_CYLINDER && type2 == mjGEOM_BOX) return mujoco_cylinder_box;
-  return mjCOLLISIONFUNC[type1][type2];
+  return mujoco_function[type1][type2] ? mujoco_function[type1][type2] : mjCOLLISIONFUNC[type1][type2];
 }
 
 void install_contact_prefilter() {
   static std::once_flag once;
   std::call_once(once, [] {
-    mujoco_cylinder_cylinder = mjCOLLISIONFUNC[mjGEOM_CYLINDER][mjGEOM_CYLINDER];
-    mujoco_cylinder_box = mjCOLLISIONFUNC[mjGEOM_CYLINDER][mjGEOM_BOX];
+    for (const Pair& p : kPairs) mujoco_function[p.type1][p.type2] = mjCOLLISIONFUNC[p.type1][p.type2];
     point_table(true);
   });
 }

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/calibrate_command.hpp"
+#include "core/cell_robot.hpp"
 #include "tests/real_data.hpp"
 #include "tests/test_support.hpp"
 
@@ -320,9 +321,11 @@ TEST(Cli, CalibrateFindsAWrongMountInTheTwin) {
                             out + " --urdf-out " + urdf);
   ASSERT_EQ(r.code, 0) << r.err;
   // The URDF written with the calibrated mount puts the LiDAR where the twin's wrong mount really had it, and
-  // changes nothing else.
-  const RobotModel nominal = RobotModel::load(test::repo("scenes/robots/aubo_i5.urdf"));
+  // changes nothing else; written elsewhere, it still finds the vendor's meshes.
+  const RobotModel nominal = load_cell_robot(CellSpec::load(test::repo("scenes/cells/calibration.yaml")));
   const RobotModel calibrated = RobotModel::load(urdf);
+  const int upper_arm = calibrated.require_link("upperArm_Link");
+  ASSERT_EQ(calibrated.links()[static_cast<size_t>(upper_arm)].collision_meshes.size(), 1u);
   const RobotModel real = nominal.with_mount_offset("lidar", mount_offset({-1, 2, 0.5}, {0.3, 0.2, -0.4}));
   std::mt19937_64 rng(5);
   for (int k = 0; k < 20; ++k) {

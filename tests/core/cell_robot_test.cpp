@@ -12,12 +12,32 @@
 namespace weldtwin {
 namespace {
 
-// The vendor's description with the tooling declared in the cell file gives the torch tip and the LiDAR
-// where weldtwin's own URDF (tooling baked in) puts them.
+std::string write_cell(const std::string& name, const std::string& robot, const std::string& tooling = "") {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "weldtwin_cell_robot_test";
+  std::filesystem::create_directories(dir);
+  const std::string scenes = test::repo("scenes");
+  const std::string path = (dir / name).string();
+  std::ofstream(path) << "environment: " << scenes << "/cells/default.xml\n"
+                      << "robot: " << robot << "\n"
+                      << "sweep: " << scenes << "/sweeps/default.yaml\n"
+                      << "part: {spec: " << scenes << "/parts/tube_on_plate.yaml}\n"
+                      << tooling;
+  return path;
+}
+
+std::string vendor_urdf() {
+  return "{urdf: " + test::repo("scenes/robots/aubo_description/urdf/aubo_i5.urdf") + "}";
+}
+
+// The default cell's robot (the vendor's description with the tooling declared in its robot file) has the
+// torch tip and the LiDAR where weldtwin's own URDF (tooling baked in) puts them.
 TEST(CellRobot, VendorUrdfWithCellToolingEqualsOwnUrdf) {
-  const RobotModel own = load_cell_robot(CellSpec::load(test::repo("scenes/cells/default.yaml")));
-  const CellSpec cell = CellSpec::load(test::repo("scenes/cells/vendor_robot.yaml"));
+  const RobotModel own =
+      load_cell_robot(CellSpec::load(write_cell("own.yaml", test::repo("scenes/robots/aubo_i5.urdf"))));
+  const CellSpec cell = CellSpec::load(test::repo("scenes/cells/default.yaml"));
   ASSERT_EQ(cell.tooling.size(), 4u);
+  EXPECT_EQ(std::filesystem::path(cell.robot_urdf).filename(), "aubo_i5.urdf");
+  EXPECT_NE(cell.robot_urdf.find("aubo_description"), std::string::npos) << cell.robot_urdf;
   const RobotModel vendor = load_cell_robot(cell);
   EXPECT_NEAR(vendor.upper()[0], 2 * kPi, 1e-12);  // the vendor's limits, not ours
   EXPECT_FALSE(
@@ -40,17 +60,29 @@ TEST(CellRobot, VendorUrdfWithCellToolingEqualsOwnUrdf) {
   }
 }
 
-std::string write_cell(const std::string& name, const std::string& tooling) {
+// Cells share a robot file; a cell's own tooling comes after the file's, on its links.
+TEST(CellRobot, ACellAddsItsToolingToTheRobotFile) {
+  const std::string cell = write_cell("extra.yaml", test::repo("scenes/robots/aubo_i5_cell.yaml"),
+                                      "tooling: [{link: wire_feeder, parent: torch, xyz_mm: [0, 40, 20]}]\n");
+  const CellSpec spec = CellSpec::load(cell);
+  ASSERT_EQ(spec.tooling.size(), 5u);
+  EXPECT_EQ(spec.tooling.front().link, "flange");
+  EXPECT_EQ(spec.tooling.back().link, "wire_feeder");
+  const RobotModel robot = load_cell_robot(spec);
+  const JointVector q = JointVector::Constant(0.3);
+  const Iso3 feeder = robot.forward_kinematics(q, robot.require_link("wire_feeder"));
+  const Iso3 torch = robot.forward_kinematics(q, robot.require_link("torch"));
+  EXPECT_LT((feeder.translation() - torch * Vec3(0, 0.04, 0.02)).norm(), 1e-12);
+  // A robot file that is no mapping, or names no URDF, is refused naming the robot file.
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "weldtwin_cell_robot_test";
-  std::filesystem::create_directories(dir);
-  const std::string scenes = test::repo("scenes");
-  const std::string path = (dir / name).string();
-  std::ofstream(path) << "environment: " << scenes << "/cells/default.xml\n"
-                      << "robot: {urdf: " << scenes << "/robots/aubo_description/urdf/aubo_i5.urdf}\n"
-                      << "sweep: " << scenes << "/sweeps/default.yaml\n"
-                      << "part: {spec: " << scenes << "/parts/tube_on_plate.yaml}\n"
-                      << tooling;
-  return path;
+  std::ofstream(dir / "bad_robot.yaml") << "tooling: []\n";
+  try {
+    CellSpec::load(write_cell("bad.yaml", (dir / "bad_robot.yaml").string()));
+    ADD_FAILURE() << "a robot file without urdf was taken";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("bad_robot.yaml"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("urdf"), std::string::npos) << e.what();
+  }
 }
 
 std::string load_error(const std::string& path) {
@@ -63,15 +95,18 @@ std::string load_error(const std::string& path) {
 }
 
 TEST(CellRobot, ToolingThatDoesNotFitTheRobotIsRefusedNamingTheCell) {
-  const std::string unknown = write_cell("unknown.yaml", "tooling: [{link: torch, parent: wrist9_Link}]\n");
+  const std::string unknown =
+      write_cell("unknown.yaml", vendor_urdf(), "tooling: [{link: torch, parent: wrist9_Link}]\n");
   EXPECT_NE(load_error(unknown).find("unknown.yaml"), std::string::npos) << load_error(unknown);
   EXPECT_NE(load_error(unknown).find("parent link 'wrist9_Link'"), std::string::npos) << load_error(unknown);
-  const std::string twice = write_cell("twice.yaml", "tooling: [{link: wrist3_Link, parent: wrist2_Link}]\n");
+  const std::string twice =
+      write_cell("twice.yaml", vendor_urdf(), "tooling: [{link: wrist3_Link, parent: wrist2_Link}]\n");
   EXPECT_NE(load_error(twice).find("already has a link"), std::string::npos) << load_error(twice);
-  const std::string xml = write_cell("xml.yaml", "tooling: [{link: 'a\"/><x', parent: wrist3_Link}]\n");
+  const std::string xml =
+      write_cell("xml.yaml", vendor_urdf(), "tooling: [{link: 'a\"/><x', parent: wrist3_Link}]\n");
   EXPECT_THROW(CellSpec::load(xml), InputError);
   const std::string shape = write_cell(
-      "shape.yaml",
+      "shape.yaml", vendor_urdf(),
       "tooling: [{link: t, parent: wrist3_Link, shapes: [{type: cylinder, radius_m: -1, length_m: 1}]}]\n");
   EXPECT_THROW(CellSpec::load(shape), InputError);
 }

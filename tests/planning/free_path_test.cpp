@@ -44,5 +44,20 @@ TEST(FreePath, FreeBetweenTheEndsAndTheSameAnswerWhateverWasAskedBefore) {
   for (size_t k = 0; k < first.size(); ++k) EXPECT_EQ(again[k], first[k]) << "waypoint " << k;
 }
 
+TEST(FreePath, AnEndInCollisionHasNoPathAndIsAnsweredWithoutSampling) {
+  const JointVector lower = JointVector::Constant(-3.0), upper = JointVector::Constant(3.0);
+  const JointVector inside_wall = joints(0.0, 0.0, 0.0), free_end = joints(1.0, 0.0, 0.0);
+  ASSERT_FALSE(free_of_wall(inside_wall));
+  for (const auto& [a, b] : {std::pair{inside_wall, free_end}, std::pair{free_end, inside_wall}}) {
+    int checks = 0;
+    const auto counted = [&](const JointVector& q) {
+      ++checks;
+      return free_of_wall(q);
+    };
+    EXPECT_TRUE(free_joint_path(a, b, lower, upper, counted, 0.02, 5.0).empty());
+    EXPECT_LE(checks, 2) << "the planner sampled for a path that cannot exist";
+  }
+}
+
 }  // namespace
 }  // namespace weldtwin

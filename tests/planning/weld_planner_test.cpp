@@ -85,7 +85,8 @@ TEST(WeldPlanner, ThePartsPlanAtTheirCellAndSeededPoses) {
 }
 
 TEST(WeldPlanner, EverySampleReproducesItsTcpPoseAndRespectsTheLimits) {
-  const RobotModel robot = RobotModel::load(test::repo("scenes/robots/aubo_i5.urdf"));
+  // The robot the plans were made for (the three cells share it).
+  const RobotModel robot = load_cell_robot(CellSpec::load(test::repo("scenes/cells/default.yaml")));
   const int tcp = robot.require_link("tcp");
   for (const Planned& p : plans()) {
     if (!p.plan.ok()) continue;

@@ -1,4 +1,4 @@
-// The early-out in front of MuJoCo's convex collider: over random poses of cylinders and a box (many
+// The early-out in front of MuJoCo's convex collider: over random poses of cylinders, a box and meshes (many
 // touching, many near, many apart) it answers exactly what MuJoCo's own function answers, and it answers most
 // of the pairs that are apart on its own.
 #include "sim/contact_prefilter.hpp"
@@ -13,10 +13,16 @@
 namespace weldtwin {
 namespace {
 
-const char* kShapes = R"(<mujoco><worldbody>
+// Two convex meshes as the arm's link pieces are: uneven, their vertices' centre off their origin.
+const char* kShapes = R"(<mujoco><asset>
+  <mesh name="wedge" vertex="0 0 0  0.12 0 0  0 0.05 0  0.12 0.03 0  0 0 0.09  0.12 0 0.02  0 0.05 0.08  0.1 0.04 0.03"/>
+  <mesh name="slab" vertex="-0.03 -0.06 -0.01  0.04 -0.06 -0.01  -0.03 0.06 -0.01  0.04 0.07 -0.01  -0.02 -0.05 0.03  0.03 -0.05 0.03  -0.02 0.05 0.03  0.03 0.05 0.04"/>
+</asset><worldbody>
   <body name="a"><freejoint/><geom name="a" type="cylinder" size="0.04 0.1"/></body>
   <body name="b"><freejoint/><geom name="b" type="cylinder" size="0.015 0.12"/></body>
   <body name="c"><freejoint/><geom name="c" type="box" size="0.05 0.012 0.07"/></body>
+  <body name="d"><freejoint/><geom name="d" type="mesh" mesh="wedge"/></body>
+  <body name="e"><freejoint/><geom name="e" type="mesh" mesh="slab"/></body>
 </worldbody></mujoco>)";
 
 // Free bodies posed at random within a cube of side `spread` [m], turned at random.
@@ -67,7 +73,7 @@ TEST(ContactPrefilter, AnswersAsMujocosColliderAndSkipsMostPairsThatAreApart) {
   const mjModel* m = model.get();
   DataPtr data(mj_makeData(m));
   std::mt19937_64 rng(7);
-  Tally cyl_cyl, cyl_box;
+  Tally cyl_cyl, cyl_box, mesh_any;
   for (int k = 0; k < 6000; ++k) {
     // Crowded cubes give touching pairs, wide ones pairs apart; margins of none to 2 cm.
     random_poses(m, data.get(), rng, k % 3 == 0 ? 0.15 : k % 3 == 1 ? 0.3 : 0.6);
@@ -75,14 +81,19 @@ TEST(ContactPrefilter, AnswersAsMujocosColliderAndSkipsMostPairsThatAreApart) {
     compare(m, data.get(), 0, 1, margin, cyl_cyl);
     compare(m, data.get(), 0, 2, margin, cyl_box);
     compare(m, data.get(), 1, 2, margin, cyl_box);
+    compare(m, data.get(), 0, 3, margin, mesh_any);  // cylinder-mesh
+    compare(m, data.get(), 2, 4, margin, mesh_any);  // box-mesh
+    compare(m, data.get(), 3, 4, margin, mesh_any);  // mesh-mesh
     if (HasFatalFailure()) return;
   }
   std::printf("cylinder-cylinder: %d pairs, %d touching, %d answered early\n", cyl_cyl.pairs,
               cyl_cyl.touching, cyl_cyl.pruned);
   std::printf("cylinder-box: %d pairs, %d touching, %d answered early\n", cyl_box.pairs, cyl_box.touching,
               cyl_box.pruned);
+  std::printf("mesh with cylinder, box, mesh: %d pairs, %d touching, %d answered early\n", mesh_any.pairs,
+              mesh_any.touching, mesh_any.pruned);
   // The poses cover both cases, and the early-out takes most pairs that do not touch.
-  for (const Tally* t : {&cyl_cyl, &cyl_box}) {
+  for (const Tally* t : {&cyl_cyl, &cyl_box, &mesh_any}) {
     EXPECT_GT(t->touching, t->pairs / 10);
     EXPECT_GT(t->pruned, (t->pairs - t->touching) / 2);
   }

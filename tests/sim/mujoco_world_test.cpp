@@ -65,7 +65,9 @@ TEST(MujocoWorld, GeomsAreLabelledByOwner) {
   EXPECT_EQ(label_of("table_leg_1"), Label::kTable);
   EXPECT_EQ(label_of("clamp0_pad"), Label::kClamp);
   EXPECT_EQ(label_of("clamp1_handle"), Label::kClamp);
-  EXPECT_EQ(label_of("wrist2_Link_0"), Label::kRobot);
+  EXPECT_EQ(label_of("wrist2_Link_mesh0"), Label::kRobot);
+  EXPECT_EQ(label_of("wrist2_Link_mesh0_hull0"), Label::kRobot);
+  EXPECT_EQ(label_of("torch_0"), Label::kRobot);
   EXPECT_EQ(label_of("lidar_0"), Label::kRobot);
   EXPECT_EQ(label_of("floor"), Label::kOther);
   EXPECT_EQ(label_of("clutter0_box"), Label::kOther);

@@ -63,10 +63,13 @@ TEST(Replay, DistanceToSeamMatchesADensePolylineEverywhere) {
   }
 }
 
-// The default cell's plan, made at the part's true pose.
+// The default cell's plan, made at the part's true pose, checked against the cell and the part (as
+// `weldtwin run` plans).
 WeldPlan plan_at_true_pose(const test::Cell& cell) {
   PlanSetting setting;
-  setting.collision = CollisionChecker(*cell.world);
+  CollisionChecker checker(*cell.world);
+  checker.add_part(load_mesh(cell.part.mesh_path), cell.layout.T_base_part);
+  setting.collision = checker;
   return plan_welds(cell.part, cell.layout.T_base_part, cell.robot, setting);
 }
 

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <map>
 
 #include "sim/seam_coverage.hpp"
 #include "tests/test_support.hpp"
@@ -68,6 +69,13 @@ Iso3 geom_pose(const mjData* d, int g) {
   return make_transform(Vec3(d->geom_xpos[3 * g], d->geom_xpos[3 * g + 1], d->geom_xpos[3 * g + 2]), R);
 }
 
+Iso3 body_pose(const mjData* d, int b) {
+  Mat3 R;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) R(r, c) = d->xmat[9 * b + 3 * r + c];
+  return make_transform(Vec3(d->xpos[3 * b], d->xpos[3 * b + 1], d->xpos[3 * b + 2]), R);
+}
+
 Vec3 sample_point(const SweepResult& r, size_t i) {
   const LidarSample& s = r.log.samples[i];
   return r.T_base_lidar[i] * Vec3(s.range_m * std::cos(s.angle_rad), s.range_m * std::sin(s.angle_rad), 0.0);
@@ -87,6 +95,23 @@ TEST(SweepSim, NoiseFreePointsLieOnTheirLabelledGeoms) {
   std::vector<std::array<Vec3, 3>> part = read_binary_stl(cell.part.mesh_path);
   for (auto& t : part)
     for (auto& v : t) v = cell.layout.T_base_part * v;
+
+  // The arm's meshes as their files have them, in their link's frame (the geom "LINK_meshK" draws the link's
+  // K-th mesh).
+  std::map<int, std::vector<std::array<Vec3, 3>>> link_meshes;
+  for (int g = 0; g < m->ngeom; ++g) {
+    const char* name = mj_id2name(m, mjOBJ_GEOM, g);
+    if (m->geom_type[g] != mjGEOM_MESH || w.geom_label(g) != Label::kRobot || collision_only(m, g)) continue;
+    const std::string n = name;
+    const size_t at = n.rfind("_mesh");
+    ASSERT_NE(at, std::string::npos) << n;
+    const RobotLink& link = cell.robot.links()[static_cast<size_t>(cell.robot.require_link(n.substr(0, at)))];
+    const LinkMesh& mesh = link.collision_meshes.at(std::stoul(n.substr(at + 5)));
+    auto& tris = link_meshes[g] = read_binary_stl(mesh.path);
+    for (auto& t : tris)
+      for (auto& v : t) v = mesh.T_link_mesh * v.cwiseProduct(mesh.scale);
+  }
+  ASSERT_FALSE(link_meshes.empty());
 
   DataPtr d = w.make_data();
   double worst[6] = {0, 0, 0, 0, 0, 0};
@@ -113,7 +138,14 @@ TEST(SweepSim, NoiseFreePointsLieOnTheirLabelledGeoms) {
         dist = std::abs(local.z());
         break;
       case mjGEOM_MESH:
-        for (const auto& t : part) dist = std::min(dist, triangle_distance(p, t[0], t[1], t[2]));
+        if (link_meshes.count(g)) {
+          const int b = m->geom_bodyid[g];
+          const Vec3 in_link = body_pose(d.get(), b).inverse() * p;
+          for (const auto& t : link_meshes[g])
+            dist = std::min(dist, triangle_distance(in_link, t[0], t[1], t[2]));
+        } else {
+          for (const auto& t : part) dist = std::min(dist, triangle_distance(p, t[0], t[1], t[2]));
+        }
         break;
       default:
         FAIL() << "unexpected geom type " << m->geom_type[g];
