@@ -124,8 +124,7 @@ void parse_tooling(const YAML::Node& tooling, const std::string& file, CellSpec&
 }
 
 bool is_yaml_path(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const std::string ext = lower_extension(path);
   return ext == ".yaml" || ext == ".yml";
 }
 

@@ -18,4 +18,11 @@ inline bool path_exists(const std::string& path) {
   return std::filesystem::exists(path, ec);
 }
 
+/// The path's extension in lower case, with its dot (".stl"); "" when there is none.
+inline std::string lower_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(c >= 'A' && c <= 'Z' ? c - 'A' + 'a' : c);
+  return ext;
+}
+
 }  // namespace weldtwin

@@ -97,8 +97,7 @@ Mesh load_mesh(const std::string& path, double scale) {
   std::error_code size_error;
   if (std::filesystem::file_size(path, size_error) == 0 || size_error)
     throw input_error(path, "empty mesh file");
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  const std::string ext = lower_extension(path);
   if (ext != ".stl" && ext != ".ply" && ext != ".obj")
     throw input_error(path, "unknown mesh format '" + ext + "' (STL, PLY or OBJ)");
   if (ext == ".ply" || ext == ".obj") {  // ours: Assimp asserted on a valid binary PLY, leaked on OBJs

@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "core/error.hpp"
+#include "core/files.hpp"
 #include "core/mesh_file.hpp"
 #include "sim/contact_prefilter.hpp"
 #include "sim/convex_pieces.hpp"
@@ -103,8 +104,7 @@ MeshPieces robot_mesh_pieces(const RobotModel& robot) {
   for (const RobotLink& link : robot.links()) {
     out.emplace_back();
     for (const LinkMesh& mesh : link.collision_meshes) {
-      std::string ext = std::filesystem::path(mesh.path).extension().string();
-      for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      const std::string ext = lower_extension(mesh.path);
       if (ext != ".stl" && ext != ".obj")
         throw input_error(mesh.path, "link '" + link.name +
                                          "': collision meshes are read as STL or OBJ, not '" + ext + "'");
