@@ -1,5 +1,6 @@
 #include "core/mesh_file.hpp"
 
+#include <assimp/config.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <assimp/Importer.hpp>
@@ -90,28 +91,13 @@ Mesh read_obj(const std::string& path) {
   return mesh;
 }
 
-}  // namespace
-
-Mesh load_mesh(const std::string& path, double scale) {
-  if (!is_file(path)) throw input_error(path, "no such mesh file");
-  std::error_code size_error;
-  if (std::filesystem::file_size(path, size_error) == 0 || size_error)
-    throw input_error(path, "empty mesh file");
-  const std::string ext = lower_extension(path);
-  if (ext != ".stl" && ext != ".ply" && ext != ".obj")
-    throw input_error(path, "unknown mesh format '" + ext + "' (STL, PLY or OBJ)");
-  if (ext == ".ply" || ext == ".obj") {  // ours: Assimp asserted on a valid binary PLY, leaked on OBJs
-    Mesh mesh;
-    if (ext == ".ply")
-      mesh.vertices = read_ply_mesh(path, mesh.faces);
-    else
-      mesh = read_obj(path);
-    for (Vec3& v : mesh.vertices) v *= scale;
-    check_mesh(path, mesh, scale);
-    return mesh;
-  }
+// STL, and the COLLADA files of robot descriptions, through Assimp: every node's meshes in the file's frame.
+// A COLLADA file's up axis is not turned into Assimp's Y-up: URDFs place their meshes as the file has them.
+Mesh read_with_assimp(const std::string& path, double scale, bool collada = false) {
   Assimp::Importer importer;
-  const aiScene* scene = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices);
+  importer.SetPropertyBool(AI_CONFIG_IMPORT_COLLADA_IGNORE_UP_DIRECTION, true);
+  const unsigned flags = aiProcess_Triangulate | aiProcess_JoinIdenticalVertices;
+  const aiScene* scene = importer.ReadFile(path, collada ? flags | aiProcess_PreTransformVertices : flags);
   if (!scene || !scene->mRootNode) {
     // Assimp's message may quote kilobytes of the file: one line, cut short.
     constexpr size_t kMaxReason = 160;
@@ -145,6 +131,36 @@ Mesh load_mesh(const std::string& path, double scale) {
   if (mesh.faces.empty()) throw input_error(path, "mesh has no triangles");
   check_mesh(path, mesh, scale);
   return mesh;
+}
+
+}  // namespace
+
+Mesh load_mesh(const std::string& path, double scale) {
+  if (!is_file(path)) throw input_error(path, "no such mesh file");
+  std::error_code size_error;
+  if (std::filesystem::file_size(path, size_error) == 0 || size_error)
+    throw input_error(path, "empty mesh file");
+  const std::string ext = lower_extension(path);
+  if (ext != ".stl" && ext != ".ply" && ext != ".obj")
+    throw input_error(path, "unknown mesh format '" + ext + "' (STL, PLY or OBJ)");
+  if (ext == ".ply" || ext == ".obj") {  // ours: Assimp asserted on a valid binary PLY, leaked on OBJs
+    Mesh mesh;
+    if (ext == ".ply")
+      mesh.vertices = read_ply_mesh(path, mesh.faces);
+    else
+      mesh = read_obj(path);
+    for (Vec3& v : mesh.vertices) v *= scale;
+    check_mesh(path, mesh, scale);
+    return mesh;
+  }
+  return read_with_assimp(path, scale);
+}
+
+Mesh load_robot_mesh(const std::string& path, double scale) {
+  const std::string ext = lower_extension(path);
+  if (ext != ".dae") return load_mesh(path, scale);
+  if (!is_file(path)) throw input_error(path, "no such mesh file");
+  return read_with_assimp(path, scale, true);
 }
 
 }  // namespace weldtwin

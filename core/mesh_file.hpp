@@ -1,5 +1,5 @@
-// Part meshes as files: STL (binary or ascii) through Assimp, PLY and OBJ through our own readers; checked
-// (finite, faces naming vertices, a size a part can have).
+// Part meshes as files: STL (binary or ascii) through Assimp, PLY and OBJ through our own readers; robot
+// meshes also as COLLADA, through Assimp; checked (finite, faces naming vertices, a size a part can have).
 #pragma once
 
 #include <Eigen/Core>
@@ -18,5 +18,9 @@ struct Mesh {
 /// Loads a mesh, scaled by `scale` (1 for metres, 1e-3 for a mesh in millimetres). Throws InputError naming
 /// the file for a missing, empty, malformed or non-finite mesh.
 Mesh load_mesh(const std::string& path, double scale = 1.0);
+
+/// A robot link's mesh as URDFs name them: the formats of load_mesh, and COLLADA (.dae; its up axis as the
+/// file has it, as URDF places meshes). Throws InputError naming the file.
+Mesh load_robot_mesh(const std::string& path, double scale = 1.0);
 
 }  // namespace weldtwin

@@ -151,7 +151,7 @@ PartClearance::PartClearance(const MujocoWorld& world, const Mesh& part_mesh, co
   impl_->range = range_m;
   const mjModel* m = world.model();
   for (int g = 0; g < m->ngeom; ++g)
-    if (world.geom_label(g) == Label::kRobot && !collision_only(m, g)) {
+    if (world.geom_label(g) == Label::kRobot && measured_for_clearance(m, g)) {
       std::vector<Chunk> c = make_chunks(m, g, 0.003, 0.03);
       Impl::GeomChunks gc;
       gc.geom = g;

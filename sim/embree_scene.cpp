@@ -272,7 +272,7 @@ EmbreeScene::EmbreeScene(const mjModel* m, const mjData* d, const std::function<
 
   std::vector<int> moving_of_body(static_cast<size_t>(m->nbody), -1);
   for (int g = 0; g < m->ngeom; ++g) {
-    if ((include && !include(g)) || collision_only(m, g)) continue;
+    if ((include && !include(g)) || !seen(m, g)) continue;
     if (m->geom_type[g] == mjGEOM_HFIELD)
       throw std::runtime_error("Embree scene: height fields are not supported");
     const int body = m->geom_bodyid[g];

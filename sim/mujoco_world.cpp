@@ -94,15 +94,20 @@ std::string hull_asset_name(const RobotLink& link, size_t k, size_t piece) {
   return mesh_asset_name(link, k) + "_hull" + std::to_string(piece);
 }
 
-// Per link, per collision mesh: the convex pieces MuJoCo collides in its place (mesh frame, scaled).
-using MeshPieces = std::vector<std::vector<std::vector<std::vector<Vec3>>>>;
+// Per link: each collision mesh's convex pieces (MuJoCo collides them in its place), and the visual meshes,
+// read (mesh frame, scaled).
+struct LinkMeshes {
+  std::vector<std::vector<std::vector<Vec3>>> pieces;
+  std::vector<Mesh> visual;
+};
 
-// The robot's collision meshes, each read and cut into convex pieces (MuJoCo draws the file itself, and
-// reads STL and OBJ: a link with a mesh in another format is refused naming it).
-MeshPieces robot_mesh_pieces(const RobotModel& robot) {
-  MeshPieces out;
+// The robot's meshes: collision meshes read and cut into convex pieces (MuJoCo draws the file itself, and
+// reads STL and OBJ: a link with a collision mesh in another format is refused naming it), visual meshes read
+// in any format load_robot_mesh reads (COLLADA too) and given to MuJoCo as vertices and faces.
+std::vector<LinkMeshes> robot_meshes(const RobotModel& robot) {
+  std::vector<LinkMeshes> out;
   for (const RobotLink& link : robot.links()) {
-    out.emplace_back();
+    LinkMeshes& lm = out.emplace_back();
     for (const LinkMesh& mesh : link.collision_meshes) {
       const std::string ext = lower_extension(mesh.path);
       if (ext != ".stl" && ext != ".obj")
@@ -110,17 +115,27 @@ MeshPieces robot_mesh_pieces(const RobotModel& robot) {
                                          "': collision meshes are read as STL or OBJ, not '" + ext + "'");
       Mesh m = load_mesh(mesh.path);
       for (Vec3& v : m.vertices) v = v.cwiseProduct(mesh.scale);
-      out.back().push_back(convex_pieces(m));
-      if (out.back().back().empty())
+      lm.pieces.push_back(convex_pieces(m));
+      if (lm.pieces.back().empty())
         throw input_error(mesh.path, "link '" + link.name + "': the mesh has no volume");
+    }
+    for (const LinkMesh& mesh : link.visual_meshes) {
+      Mesh m = load_robot_mesh(mesh.path);
+      for (Vec3& v : m.vertices) v = v.cwiseProduct(mesh.scale);
+      lm.visual.push_back(std::move(m));
     }
   }
   return out;
 }
 
-// The meshes as MJCF assets: the file (drawn, ray-cast, and the part's clearance measured on it) and its
-// pieces' points (MuJoCo collides their hulls).
-std::string robot_mesh_assets(const RobotModel& robot, const MeshPieces& pieces) {
+std::string visual_asset_name(const RobotLink& link, size_t k) {
+  return body_name(link) + "_visual" + std::to_string(k);
+}
+
+// The meshes as MJCF assets: the collision mesh's file (the part's clearance measured on it; drawn and
+// ray-cast when the link has no visual mesh), its pieces' points (MuJoCo collides their hulls), and the
+// visual meshes' vertices and faces (drawn and ray-cast).
+std::string robot_mesh_assets(const RobotModel& robot, const std::vector<LinkMeshes>& meshes) {
   std::ostringstream os;
   XmlNumbers num(os);
   for (size_t l = 0; l < robot.links().size(); ++l) {
@@ -132,7 +147,7 @@ std::string robot_mesh_assets(const RobotModel& robot, const MeshPieces& pieces)
          << std::filesystem::absolute(mesh.path).lexically_normal().string() << "\"";
       num.vec("scale", scale, 3);
       os << "/>\n";
-      const auto& hulls = pieces[l][k];
+      const auto& hulls = meshes[l].pieces[k];
       for (size_t p = 0; p < hulls.size(); ++p) {
         std::vector<double> xyz;
         for (const Vec3& v : hulls[p]) xyz.insert(xyz.end(), {v.x(), v.y(), v.z()});
@@ -141,11 +156,23 @@ std::string robot_mesh_assets(const RobotModel& robot, const MeshPieces& pieces)
         os << "/>\n";
       }
     }
+    for (size_t k = 0; k < meshes[l].visual.size(); ++k) {
+      const Mesh& mesh = meshes[l].visual[k];
+      std::vector<double> xyz;
+      for (const Vec3& v : mesh.vertices) xyz.insert(xyz.end(), {v.x(), v.y(), v.z()});
+      os << "<mesh name=\"" << visual_asset_name(link, k) << "\"";
+      num.vec("vertex", xyz.data(), static_cast<int>(xyz.size()));
+      os << " face=\"";
+      for (size_t f = 0; f < mesh.faces.size(); ++f)
+        os << (f ? " " : "") << mesh.faces[f][0] << ' ' << mesh.faces[f][1] << ' ' << mesh.faces[f][2];
+      os << "\"/>\n";
+    }
   }
   return os.str();
 }
 
-void robot_body_xml(std::ostringstream& os, const RobotModel& robot, const MeshPieces& pieces, int index) {
+void robot_body_xml(std::ostringstream& os, const RobotModel& robot, const std::vector<LinkMeshes>& meshes,
+                    int index) {
   const RobotLink& link = robot.links()[static_cast<size_t>(index)];
   XmlNumbers num(os);
   os << "<body name=\"" << body_name(link) << "\"";
@@ -179,21 +206,31 @@ void robot_body_xml(std::ostringstream& os, const RobotModel& robot, const MeshP
     if (g < link.visual.size()) geom.rgba = link.visual[g].rgba;
     geom_xml(os, link.name + "_" + std::to_string(g), geom);
   }
-  // A mesh is drawn and ray-cast as it is; MuJoCo collides its convex pieces (kCollisionOnlyGroup).
+  // MuJoCo collides a collision mesh's convex pieces (kCollisionOnlyGroup); the mesh itself is drawn and
+  // ray-cast unless the link has visual meshes (then kClearanceOnlyGroup); the visual meshes are drawn and
+  // ray-cast, never collided.
+  const LinkMeshes& lm = meshes[static_cast<size_t>(index)];
   for (size_t k = 0; k < link.collision_meshes.size(); ++k) {
     os << "<geom name=\"" << mesh_asset_name(link, k) << "\" type=\"mesh\" mesh=\""
-       << mesh_asset_name(link, k) << "\" contype=\"0\" conaffinity=\"0\"";
+       << mesh_asset_name(link, k) << "\" contype=\"0\" conaffinity=\"0\" group=\""
+       << (lm.visual.empty() ? 0 : kClearanceOnlyGroup) << "\"";
     num.pose(link.collision_meshes[k].T_link_mesh);
     os << " rgba=\"0.86 0.87 0.88 1\"/>\n";
-    for (size_t p = 0; p < pieces[static_cast<size_t>(index)][k].size(); ++p) {
+    for (size_t p = 0; p < lm.pieces[k].size(); ++p) {
       os << "<geom name=\"" << hull_asset_name(link, k, p) << "\" type=\"mesh\" mesh=\""
          << hull_asset_name(link, k, p) << "\" group=\"" << kCollisionOnlyGroup << "\"";
       num.pose(link.collision_meshes[k].T_link_mesh);
       os << " rgba=\"0.9 0.5 0.2 0.4\"/>\n";
     }
   }
+  for (size_t k = 0; k < lm.visual.size(); ++k) {
+    os << "<geom name=\"" << visual_asset_name(link, k) << "\" type=\"mesh\" mesh=\""
+       << visual_asset_name(link, k) << "\" contype=\"0\" conaffinity=\"0\" group=\"" << kVisualGroup << "\"";
+    num.pose(link.visual_meshes[k].T_link_mesh);
+    os << " rgba=\"0.86 0.87 0.88 1\"/>\n";
+  }
   for (size_t c = 0; c < robot.links().size(); ++c)
-    if (robot.links()[c].parent == index) robot_body_xml(os, robot, pieces, static_cast<int>(c));
+    if (robot.links()[c].parent == index) robot_body_xml(os, robot, meshes, static_cast<int>(c));
   os << "</body>\n";
 }
 
@@ -308,8 +345,8 @@ std::string compose_cell_mjcf(const CellSpec& cell, const PartSpec& part, const 
 
   std::ostringstream bodies;
   bodies << "<!-- added by weldtwin from " << cell.source << " -->\n";
-  const MeshPieces pieces = robot_mesh_pieces(robot);
-  robot_body_xml(bodies, robot, pieces, 0);
+  const std::vector<LinkMeshes> meshes = robot_meshes(robot);
+  robot_body_xml(bodies, robot, meshes, 0);
   XmlNumbers num(bodies);
   bodies << "<body name=\"part\"";
   num.pose(layout.T_base_part);
@@ -339,7 +376,7 @@ std::string compose_cell_mjcf(const CellSpec& cell, const PartSpec& part, const 
 
   const std::string mesh = "<mesh name=\"part_mesh\" file=\"" +
                            std::filesystem::absolute(part.mesh_path).lexically_normal().string() + "\"/>\n" +
-                           robot_mesh_assets(robot, pieces);
+                           robot_mesh_assets(robot, meshes);
   const size_t asset_end = env.find("</asset>");
   if (asset_end != std::string::npos) {
     env.insert(asset_end, mesh);

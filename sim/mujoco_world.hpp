@@ -18,12 +18,20 @@ namespace weldtwin {
 enum class Label : uint8_t { kNone = 0, kPart = 1, kTable = 2, kClamp = 3, kRobot = 4, kOther = 5 };
 const char* label_name(Label label);
 
-/// The geom group of shapes MuJoCo collides but nobody draws or ray-casts: the convex pieces of a robot
-/// link's mesh, which stands for them in pictures, scans and the part's clearance. MuJoCo's viewers hide
-/// groups from 3 on by default.
+/// Geom groups of a robot's meshes. MuJoCo collides a link's collision mesh as convex pieces
+/// (kCollisionOnlyGroup: collided, never drawn or ray-cast); the mesh itself is what the part's clearance is
+/// measured on, drawn and ray-cast too unless the link has visual meshes (then kClearanceOnlyGroup); visual
+/// meshes (kVisualGroup) are drawn and ray-cast, never collided. MuJoCo's viewers hide groups from 3 on.
+constexpr int kVisualGroup = 1;
 constexpr int kCollisionOnlyGroup = 3;
-inline bool collision_only(const mjModel* m, int geom) {
-  return m->geom_group[geom] == kCollisionOnlyGroup;
+constexpr int kClearanceOnlyGroup = 4;
+/// Whether the geom is seen: drawn, and hit by the LiDAR's rays.
+inline bool seen(const mjModel* m, int geom) {
+  return m->geom_group[geom] < kCollisionOnlyGroup;
+}
+/// Whether the part's clearance is measured on the geom (primitives and collision meshes).
+inline bool measured_for_clearance(const mjModel* m, int geom) {
+  return m->geom_group[geom] == 0 || m->geom_group[geom] == kClearanceOnlyGroup;
 }
 
 /// Installs MuJoCo error/warning handlers that throw / collect instead of waiting for Enter and writing

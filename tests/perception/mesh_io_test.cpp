@@ -168,5 +168,25 @@ TEST(MeshIo, MeshesNoPartCanBeAreRefusedNamingTheFile) {
   }
 }
 
+// A robot's COLLADA visual mesh lies where its STL collision mesh lies (the vendor's upper arm: the file's
+// Z_UP kept, not turned to Y-up), while a part mesh as COLLADA is still refused.
+TEST(MeshIo, RobotColladaMeshLiesOnItsCollisionMesh) {
+  const std::string meshes = test::repo("scenes/robots/aubo_description/meshes/aubo_i5/");
+  const Mesh visual = load_robot_mesh(meshes + "visual/link2.DAE");
+  const Mesh collision = load_robot_mesh(meshes + "collision/link2.STL");
+  auto box = [](const Mesh& m) {
+    Eigen::AlignedBox3d b;
+    for (const Vec3& v : m.vertices) b.extend(v);
+    return b;
+  };
+  const Eigen::AlignedBox3d a = box(visual), b = box(collision);
+  EXPECT_GT(visual.faces.size(), 1000u);
+  EXPECT_LT((a.min() - b.min()).cwiseAbs().maxCoeff(), 0.005)
+      << a.min().transpose() << " / " << b.min().transpose();
+  EXPECT_LT((a.max() - b.max()).cwiseAbs().maxCoeff(), 0.005)
+      << a.max().transpose() << " / " << b.max().transpose();
+  EXPECT_THROW(load_mesh(meshes + "visual/link2.DAE"), InputError);
+}
+
 }  // namespace
 }  // namespace weldtwin

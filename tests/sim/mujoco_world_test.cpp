@@ -67,6 +67,19 @@ TEST(MujocoWorld, GeomsAreLabelledByOwner) {
   EXPECT_EQ(label_of("clamp1_handle"), Label::kClamp);
   EXPECT_EQ(label_of("wrist2_Link_mesh0"), Label::kRobot);
   EXPECT_EQ(label_of("wrist2_Link_mesh0_hull0"), Label::kRobot);
+  EXPECT_EQ(label_of("wrist2_Link_visual0"), Label::kRobot);
+  // The vendor's meshes: the visual one seen (drawn, ray-cast), the collision one measured for the part's
+  // clearance only, its convex pieces collided only; only the pieces and primitives collide.
+  auto id = [&](const char* geom) { return mj_name2id(m, mjOBJ_GEOM, geom); };
+  EXPECT_TRUE(seen(m, id("wrist2_Link_visual0")));
+  EXPECT_FALSE(measured_for_clearance(m, id("wrist2_Link_visual0")));
+  EXPECT_FALSE(seen(m, id("wrist2_Link_mesh0")));
+  EXPECT_TRUE(measured_for_clearance(m, id("wrist2_Link_mesh0")));
+  EXPECT_FALSE(seen(m, id("wrist2_Link_mesh0_hull0")));
+  EXPECT_FALSE(measured_for_clearance(m, id("wrist2_Link_mesh0_hull0")));
+  for (const char* g : {"wrist2_Link_visual0", "wrist2_Link_mesh0"})
+    EXPECT_EQ(m->geom_contype[id(g)], 0) << g;
+  EXPECT_NE(m->geom_contype[id("wrist2_Link_mesh0_hull0")], 0);
   EXPECT_EQ(label_of("torch_0"), Label::kRobot);
   EXPECT_EQ(label_of("lidar_0"), Label::kRobot);
   EXPECT_EQ(label_of("floor"), Label::kOther);

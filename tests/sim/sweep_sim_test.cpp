@@ -101,7 +101,8 @@ TEST(SweepSim, NoiseFreePointsLieOnTheirLabelledGeoms) {
   std::map<int, std::vector<std::array<Vec3, 3>>> link_meshes;
   for (int g = 0; g < m->ngeom; ++g) {
     const char* name = mj_id2name(m, mjOBJ_GEOM, g);
-    if (m->geom_type[g] != mjGEOM_MESH || w.geom_label(g) != Label::kRobot || collision_only(m, g)) continue;
+    if (m->geom_type[g] != mjGEOM_MESH || w.geom_label(g) != Label::kRobot || !measured_for_clearance(m, g))
+      continue;
     const std::string n = name;
     const size_t at = n.rfind("_mesh");
     ASSERT_NE(at, std::string::npos) << n;
@@ -143,6 +144,15 @@ TEST(SweepSim, NoiseFreePointsLieOnTheirLabelledGeoms) {
           const Vec3 in_link = body_pose(d.get(), b).inverse() * p;
           for (const auto& t : link_meshes[g])
             dist = std::min(dist, triangle_distance(in_link, t[0], t[1], t[2]));
+        } else if (w.geom_label(g) == Label::kRobot) {
+          // A visual mesh (COLLADA, which the test has no reader of): the triangles MuJoCo holds, geom frame.
+          const int mesh = m->geom_dataid[g];
+          const float* v = m->mesh_vert + 3 * m->mesh_vertadr[mesh];
+          const int* f = m->mesh_face + 3 * m->mesh_faceadr[mesh];
+          auto vertex = [&](int k) { return Vec3(v[3 * k], v[3 * k + 1], v[3 * k + 2]); };
+          for (int k = 0; k < m->mesh_facenum[mesh]; ++k)
+            dist = std::min(
+                dist, triangle_distance(local, vertex(f[3 * k]), vertex(f[3 * k + 1]), vertex(f[3 * k + 2])));
         } else {
           for (const auto& t : part) dist = std::min(dist, triangle_distance(p, t[0], t[1], t[2]));
         }
