@@ -306,6 +306,7 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d, const
     CollisionChecker checker(world);
     checker.add_part(c.mesh, ours.T_base_part);
     plan_setting.collision = checker;
+    plan_setting.search_weld_window = cmd.weld_window;
     plan = plan_welds(c.part, ours.T_base_part, c.robot, plan_setting);  // as the controller knows it
     json p;
     p["ok"] = plan.ok();

@@ -50,7 +50,10 @@ nlohmann::json plan_to_json(const WeldPlan& plan, const PartSpec& part, const Ro
                             {"length_m", s.length_m},
                             {"speed_m_s", s.speed_m_s},
                             {"pieces", s.pieces},
-                            {"torch_roll_deg", rolls}});
+                            {"torch_roll_deg", rolls},
+                            {"work_angle_deg", s.work_angle_rad * 180.0 / kPi},
+                            {"travel_angle_deg", s.travel_angle_rad * 180.0 / kPi},
+                            {"reversed", s.reversed}});
   }
   nlohmann::json samples = nlohmann::json::array();
   for (const PlanSample& s : plan.samples)

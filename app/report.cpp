@@ -244,6 +244,12 @@ nlohmann::json report_json(const RunRecord& run) {
                  {"samples", run.plan->samples.size()},
                  {"seams", run.plan->seams.size()},
                  {"sha256", run.plan_sha256}};
+    for (const PlannedSeam& s : run.plan->seams)
+      j["plan"]["torch"].push_back({{"seam", s.name},
+                                    {"work_angle_deg", rad2deg(s.work_angle_rad)},
+                                    {"travel_angle_deg", rad2deg(s.travel_angle_rad)},
+                                    {"torch_roll_deg", rad2deg(s.roll_rad)},
+                                    {"reversed", s.reversed}});
   }
   if (run.replay) {
     const ReplayResult& r = *run.replay;
@@ -348,6 +354,11 @@ double write_report(const RunRecord& run, const std::string& dir, bool renders) 
     row("plan", run.plan->ok() ? "ok" : run.plan->problems.front(), !run.plan->ok());
     row("plan duration",
         num(run.plan->duration_s(), 1) + " s, " + std::to_string(run.plan->samples.size()) + " samples");
+    for (const PlannedSeam& s : run.plan->seams)
+      row("torch on seam '" + s.name + "'", "work " + num(rad2deg(s.work_angle_rad), 0) + " deg, travel " +
+                                                num(rad2deg(s.travel_angle_rad), 0) + " deg, roll " +
+                                                num(rad2deg(s.roll_rad), 0) + " deg" +
+                                                (s.reversed ? ", welded from its end to its start" : ""));
     for (const auto& n : run.plan->notes) row("plan note", n);
   }
   if (run.replay) {

@@ -50,6 +50,17 @@ Vec3 Seam::wall_normal_at(double s) const {
   return (r - r.dot(axis) * axis).normalized();
 }
 
+Seam Seam::reversed() const {
+  Seam r = *this;
+  r.start = point_at(1.0);
+  if (kind == Kind::kLine) {
+    r.end = start;
+  } else {
+    r.sweep_rad = -sweep_rad;  // about the same axis and centre, back from the end
+  }
+  return r;
+}
+
 double PartSpec::footprint_radius_m() const {
   double r = 0.0;
   for (const auto& p : footprint) r = std::max(r, p.norm());
@@ -118,6 +129,18 @@ Seam parse_seam(const YAML::Node& node, size_t index, const std::string& file) {
     throw input_error(file, where + "work_angle_deg must be within 0-90 (the torch between the members)");
   if (!(std::abs(s.travel_angle_rad) <= kMaxTravelAngle))
     throw input_error(file, where + "travel_angle_deg must be within -45 and +45");
+  s.work_angle_tol_rad = yaml::maybe_angle(node, "work_angle_tol", file).value_or(0.0);
+  if (!(s.work_angle_tol_rad >= 0.0 && s.work_angle_rad - s.work_angle_tol_rad >= -1e-12 &&
+        s.work_angle_rad + s.work_angle_tol_rad <= kPi / 2 + 1e-12))
+    throw input_error(file, where + "work_angle_deg +- work_angle_tol_deg must stay within 0-90");
+  s.travel_angle_min_rad = yaml::maybe_angle(node, "travel_angle_min", file).value_or(s.travel_angle_rad);
+  s.travel_angle_max_rad = yaml::maybe_angle(node, "travel_angle_max", file).value_or(s.travel_angle_rad);
+  if (!(s.travel_angle_min_rad <= s.travel_angle_rad + 1e-12 &&
+        s.travel_angle_rad <= s.travel_angle_max_rad + 1e-12 && s.travel_angle_min_rad >= -kMaxTravelAngle &&
+        s.travel_angle_max_rad <= kMaxTravelAngle))
+    throw input_error(file, where +
+                                "travel_angle_min_deg <= travel_angle_deg <= travel_angle_max_deg, "
+                                "all within -45 and +45");
   if (node["torch_roll_deg"] && node["torch_roll_deg"].IsScalar() &&
       node["torch_roll_deg"].Scalar() == "free") {
     s.torch_roll_rad.reset();

@@ -23,7 +23,11 @@ struct Seam {
   Vec3 normal = Vec3::UnitZ();       ///< n: reference surface normal, into the open side
   Vec3 wall_normal = Vec3::UnitX();  ///< m: other member's normal, into the open side (lines)
   bool wall_normal_radial = false;   ///< arcs: m is the outward radial direction at each point
-  double work_angle_rad = 0.0, travel_angle_rad = 0.0;
+  double work_angle_rad = 0.0, travel_angle_rad = 0.0;  ///< nominal: what the planner prefers
+  double work_angle_tol_rad = 0.0;  ///< the planner may tilt the torch this far either side of work_angle
+  /// The travel angles the weld accepts (drag < 0 < push), travel_angle within them; both equal to it when
+  /// the spec gives no window.
+  double travel_angle_min_rad = 0.0, travel_angle_max_rad = 0.0;
   std::optional<double> torch_roll_rad;  ///< nullopt: free, the planner chooses
   double speed_m_s = 0.0;
 
@@ -34,6 +38,8 @@ struct Seam {
   Vec3 direction_at(double s) const;
   /// m at fraction s.
   Vec3 wall_normal_at(double s) const;
+  /// The same seam welded from its end to its start (the torch roll, relative to the travel direction, kept).
+  Seam reversed() const;
 };
 
 struct ClampSite {

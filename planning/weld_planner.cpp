@@ -20,14 +20,14 @@ struct SeamGeometry {
   const Seam* seam = nullptr;
   Iso3 T_base_part = Iso3::Identity();
   double length = 0.0;
+  double work = 0.0, travel = 0.0;  ///< the torch's work and travel angles [rad]
 
   Vec3 point(double s) const { return T_base_part * seam->point_at(s / length); }
   Iso3 tcp(double s, double roll) const {
     const double f = s / length;
     const Mat3& R = T_base_part.linear();
-    return make_transform(
-        point(s), torch_orientation(R * seam->direction_at(f), R * seam->normal, R * seam->wall_normal_at(f),
-                                    seam->work_angle_rad, seam->travel_angle_rad, roll));
+    return make_transform(point(s), torch_orientation(R * seam->direction_at(f), R * seam->normal,
+                                                      R * seam->wall_normal_at(f), work, travel, roll));
   }
 };
 
@@ -479,78 +479,142 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
   bool at_corner = false;  // the TCP stands at the start of the next seam with the arc on
   int branch = -1;
   for (size_t i = 0; i < part.seams.size(); ++i) {
-    const Seam& seam = part.seams[i];
-    SeamGeometry g{&seam, T_base_part, seam.length_m()};
+    const Seam& spec_seam = part.seams[i];
+    const std::string what = "seam '" + spec_seam.name + "'";
+    // Split a way of welding the seam into pieces that one roll and one IK branch can weld (more than one:
+    // re-grips). Greedy longest stretches give the number of pieces; equal pieces are preferred, so no piece
+    // is too short to blend. Returns why it cannot be welded so ("" when it can).
+    std::vector<std::pair<double, double>> pieces;
+    std::vector<Choice> choices;
+    auto split = [&](const SeamGeometry& g) -> std::string {
+      const Seam& seam = *g.seam;
+      pieces.clear();
+      choices.clear();
+      double s0 = 0.0;
+      while (s0 < g.length - 1e-9) {
+        Choice c = b.choose(g, s0, g.length, seam.torch_roll_rad, branch);
+        double s1 = g.length;
+        if (!c.ok && seam.kind == Seam::Kind::kArc && !seam.torch_roll_rad) {
+          // The longest stretch from s0 that some roll can weld, by bisection on its end.
+          double lo = s0, hi = g.length;
+          for (int it = 0; it < 7; ++it) {
+            const double mid = 0.5 * (lo + hi);
+            if (b.choose(g, s0, mid, seam.torch_roll_rad, branch, true).ok) {
+              lo = mid;
+            } else {
+              hi = mid;
+            }
+          }
+          s1 = lo;
+          c = b.choose(g, s0, s1, seam.torch_roll_rad, branch);
+          // Leave no stub too short to blend at the weld speed: end this piece earlier instead.
+          constexpr double kMinPiece = 0.025;
+          if (g.length - s1 < kMinPiece && g.length - kMinPiece - s0 >= 0.01) {
+            s1 = g.length - kMinPiece;
+            c = b.choose(g, s0, s1, seam.torch_roll_rad, branch);
+          }
+          if (s1 - s0 < 0.01) c.ok = false;
+        }
+        if (!c.ok) {
+          const std::string hit = b.main_collision();
+          return std::string(seam.torch_roll_rad ? "unreachable with its torch roll"
+                                                 : "unreachable with any torch roll") +
+                 (hit.empty() ? " (out of reach, or closer than the set margins to the joint limits or to a"
+                                " singularity)"
+                              : " (where the arm reaches it, it collides: " + hit + ")");
+        }
+        pieces.emplace_back(s0, s1);
+        choices.push_back(c);
+        s0 = s1;
+      }
+      for (size_t n = pieces.size(); n > 1 && n <= pieces.size() + 1; ++n) {
+        std::vector<std::pair<double, double>> equal;
+        std::vector<Choice> equal_choices;
+        for (size_t k = 0; k < n; ++k) {
+          const double a = g.length * static_cast<double>(k) / static_cast<double>(n);
+          const double e = g.length * static_cast<double>(k + 1) / static_cast<double>(n);
+          if (!b.choose(g, a, e, seam.torch_roll_rad, branch, true).ok) break;
+          const Choice c = b.choose(g, a, e, seam.torch_roll_rad, branch);
+          equal.emplace_back(a, e);
+          equal_choices.push_back(c);
+        }
+        if (equal.size() == n) {
+          pieces = equal;
+          choices = equal_choices;
+          break;
+        }
+      }
+      return std::string();
+    };
+
+    // The ways to weld it, nearest the spec first: its nominal angles, then the edges of its work and travel
+    // windows; each in the spec's direction, then (a free roll, no welding through corners) reversed.
+    struct Way {
+      Seam seam;
+      double work = 0.0, travel = 0.0, cost = 0.0;
+      bool reversed = false;
+    };
+    std::vector<Way> ways;
+    {
+      std::vector<double> works{spec_seam.work_angle_rad}, travels{spec_seam.travel_angle_rad};
+      if (spec_seam.work_angle_tol_rad > 0)
+        works.insert(works.end(), {spec_seam.work_angle_rad - spec_seam.work_angle_tol_rad,
+                                   spec_seam.work_angle_rad + spec_seam.work_angle_tol_rad});
+      for (double t : {spec_seam.travel_angle_min_rad, spec_seam.travel_angle_max_rad})
+        if (std::abs(t - spec_seam.travel_angle_rad) > 1e-9) travels.push_back(t);
+      const bool may_reverse = !spec_seam.torch_roll_rad && !setting.weld_through_corners;
+      if (!setting.search_weld_window) works.resize(1), travels.resize(1);
+      for (double w : works)
+        for (double t : travels)
+          for (bool rev : {false, true})
+            if (!rev || (may_reverse && setting.search_weld_window))
+              ways.push_back({rev ? spec_seam.reversed() : spec_seam, w, t,
+                              std::hypot(w - spec_seam.work_angle_rad, t - spec_seam.travel_angle_rad) +
+                                  (rev ? 1e-6 : 0.0),
+                              rev});
+      std::stable_sort(ways.begin(), ways.end(), [](const Way& x, const Way& y) { return x.cost < y.cost; });
+    }
+    std::string nominal_problem;
+    const Way* way = nullptr;
+    for (const Way& w : ways) {
+      const std::string problem = split({&w.seam, T_base_part, w.seam.length_m(), w.work, w.travel});
+      if (problem.empty()) {
+        way = &w;
+        break;
+      }
+      if (nominal_problem.empty()) nominal_problem = problem;
+    }
+    if (!way) {
+      std::string tried;
+      if (ways.size() > 1)
+        tried = "; tried " + std::to_string(ways.size()) + " ways (" +
+                (ways.size() > 2 || !ways.back().reversed ? "work and travel angles within its window" : "") +
+                (ways.size() > 2 && ways.back().reversed ? ", " : "") +
+                (ways.back().reversed ? "both directions" : "") + ")";
+      plan.problems.push_back(what + ": " + nominal_problem + tried);
+      break;
+    }
+    const Seam& seam = way->seam;
+    const SeamGeometry g{&seam, T_base_part, seam.length_m(), way->work, way->travel};
     PlannedSeam ps;
     ps.name = seam.name;
     ps.start_base = g.point(0.0);
     ps.end_base = g.point(g.length);
     ps.length_m = g.length;
     ps.speed_m_s = seam.speed_m_s;
-    const std::string what = "seam '" + seam.name + "'";
-
-    // Split into pieces that one roll and one IK branch can weld (more than one: re-grips). Greedy longest
-    // stretches give the number of pieces; equal pieces are preferred, so no piece is too short to blend.
-    std::vector<std::pair<double, double>> pieces;
-    std::vector<Choice> choices;
-    double s0 = 0.0;
-    while (s0 < g.length - 1e-9) {
-      Choice c = b.choose(g, s0, g.length, seam.torch_roll_rad, branch);
-      double s1 = g.length;
-      if (!c.ok && seam.kind == Seam::Kind::kArc && !seam.torch_roll_rad) {
-        // The longest stretch from s0 that some roll can weld, by bisection on its end.
-        double lo = s0, hi = g.length;
-        for (int it = 0; it < 7; ++it) {
-          const double mid = 0.5 * (lo + hi);
-          if (b.choose(g, s0, mid, seam.torch_roll_rad, branch, true).ok) {
-            lo = mid;
-          } else {
-            hi = mid;
-          }
-        }
-        s1 = lo;
-        c = b.choose(g, s0, s1, seam.torch_roll_rad, branch);
-        // Leave no stub too short to blend at the weld speed: end this piece earlier instead.
-        constexpr double kMinPiece = 0.025;
-        if (g.length - s1 < kMinPiece && g.length - kMinPiece - s0 >= 0.01) {
-          s1 = g.length - kMinPiece;
-          c = b.choose(g, s0, s1, seam.torch_roll_rad, branch);
-        }
-        if (s1 - s0 < 0.01) c.ok = false;
-      }
-      if (!c.ok) {
-        const std::string hit = b.main_collision();
-        plan.problems.push_back(
-            what +
-            (seam.torch_roll_rad ? ": unreachable with its torch roll"
-                                 : ": unreachable with any torch roll") +
-            (hit.empty() ? " (out of reach, or closer than the set margins to the joint limits or to a"
-                           " singularity)"
-                         : " (where the arm reaches it, it collides: " + hit + ")"));
-        break;
-      }
-      pieces.emplace_back(s0, s1);
-      choices.push_back(c);
-      s0 = s1;
+    ps.work_angle_rad = way->work;
+    ps.travel_angle_rad = way->travel;
+    ps.reversed = way->reversed;
+    if (way != &ways.front()) {
+      std::ostringstream note;
+      note << what << ": welded";
+      if (way->reversed) note << " from its end to its start";
+      if (way->cost > 1e-3)
+        note << (way->reversed ? "," : "") << " at work " << std::lround(rad2deg(way->work))
+             << " deg, travel " << std::lround(rad2deg(way->travel)) << " deg";
+      note << " (as specified: " << nominal_problem << ")";
+      plan.notes.push_back(note.str());
     }
-    for (size_t n = pieces.size(); n > 1 && n <= pieces.size() + 1 && plan.problems.empty(); ++n) {
-      std::vector<std::pair<double, double>> equal;
-      std::vector<Choice> equal_choices;
-      for (size_t k = 0; k < n; ++k) {
-        const double a = g.length * static_cast<double>(k) / static_cast<double>(n);
-        const double e = g.length * static_cast<double>(k + 1) / static_cast<double>(n);
-        if (!b.choose(g, a, e, seam.torch_roll_rad, branch, true).ok) break;
-        const Choice c = b.choose(g, a, e, seam.torch_roll_rad, branch);
-        equal.emplace_back(a, e);
-        equal_choices.push_back(c);
-      }
-      if (equal.size() == n) {
-        pieces = equal;
-        choices = equal_choices;
-        break;
-      }
-    }
-    if (!plan.problems.empty()) break;
     ps.pieces = static_cast<int>(pieces.size());
     ps.roll_rad = choices.front().roll;
     for (const Choice& c : choices) ps.roll_per_piece_rad.push_back(c.roll);

@@ -41,7 +41,10 @@ struct PlanSetting {
   /// rolls whose stations, approaches or departures collide are not chosen, and a transit that would collide
   /// is lifted instead. Unset: no collision checks.
   std::function<std::string(const JointVector& q, bool welding)> collision;
-  double transit_lift_m = 0.15;  ///< how far a lifted transit backs off along the torch axis at both ends
+  double transit_lift_m = 0.15;
+  /// When a seam cannot be welded as its spec says, try the other ways it allows: the edges of its work and
+  /// travel angle windows, and (a free roll) the other direction. Off: the spec's angles and direction only.
+  bool search_weld_window = true;  ///< how far a lifted transit backs off along the torch axis at both ends
 };
 
 enum class Phase { kTransit, kApproach, kWeld, kCorner, kDeparture };
@@ -62,6 +65,8 @@ struct PlannedSeam {
   double length_m = 0.0, speed_m_s = 0.0, roll_rad = 0.0;
   int pieces = 1;  ///< > 1: split with re-grips
   std::vector<double> roll_per_piece_rad;
+  double work_angle_rad = 0.0, travel_angle_rad = 0.0;  ///< the angles chosen (the spec's when they work)
+  bool reversed = false;                                ///< welded from the spec's end to its start
 };
 
 struct WeldPlan {

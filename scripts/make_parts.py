@@ -104,7 +104,11 @@ def write_spec(name, seams, clamp_sites, footprint, height, notes):
         wn = s["wall_normal"]
         lines.append("    wall_normal: %s" % (wn if isinstance(wn, str) else fmt(wn)))
         lines.append("    work_angle_deg: 45")
-        lines.append("    travel_angle_deg: %g" % s.get("travel_deg", 10))
+        lines.append("    work_angle_tol_deg: 10")
+        travel = s.get("travel_deg", 10)
+        lines.append("    travel_angle_deg: %g" % travel)
+        lines.append("    travel_angle_min_deg: %g   # drag" % min(-15, travel))
+        lines.append("    travel_angle_max_deg: %g   # push" % max(20, travel))
         lines.append("    torch_roll_deg: free")
         lines.append("    speed_mm_s: 8")
     with open(os.path.join(OUT, name + ".yaml"), "w") as f:

@@ -137,6 +137,42 @@ TEST(PartSpec, SeamsNoTorchCanWeldAreRejectedAndHugeDirectionsKept) {
   EXPECT_NEAR(edge.seams[0].work_angle_rad, kPi / 2, 1e-12);
 }
 
+// The angle windows a weld accepts: read in degrees, the nominal when left out, refused when the window
+// leaves the torch's range or does not hold the nominal.
+TEST(PartSpec, SeamAngleWindowsAreReadAndChecked) {
+  const std::string stl = test::repo("scenes/parts/tube_on_plate.stl");
+  auto spec = [&](const std::string& extra) {
+    return "name: p\nmodel: " + stl +
+           "\nseams:\n  - name: s\n    start: [0, 0, 0]\n    end: [0.05, 0, 0]\n    normal: [0, 0, 1]\n"
+           "    wall_normal: [0, -1, 0]\n    work_angle_deg: 45\n    travel_angle_deg: 10\n" +
+           extra + "    torch_roll_deg: free\n    speed_mm_s: 8\n";
+  };
+  const Seam plain = PartSpec::load(write_temp("plain.yaml", spec(""))).seams[0];
+  EXPECT_EQ(plain.work_angle_tol_rad, 0.0);
+  EXPECT_NEAR(plain.travel_angle_min_rad, deg2rad(10), 1e-12);
+  EXPECT_NEAR(plain.travel_angle_max_rad, deg2rad(10), 1e-12);
+  const Seam windowed = PartSpec::load(write_temp("window.yaml", spec("    work_angle_tol_deg: 10\n"
+                                                                      "    travel_angle_min_deg: -15\n"
+                                                                      "    travel_angle_max_deg: 20\n")))
+                            .seams[0];
+  EXPECT_NEAR(windowed.work_angle_tol_rad, deg2rad(10), 1e-12);
+  EXPECT_NEAR(windowed.travel_angle_min_rad, deg2rad(-15), 1e-12);
+  EXPECT_NEAR(windowed.travel_angle_max_rad, deg2rad(20), 1e-12);
+  for (const char* bad : {"    work_angle_tol_deg: 50\n", "    work_angle_tol_deg: -1\n"})
+    EXPECT_NE(input_error_of([&] {
+                PartSpec::load(write_temp("bad.yaml", spec(bad)));
+              }).find("work_angle_deg +- work_angle_tol_deg must stay within 0-90"),
+              std::string::npos)
+        << bad;
+  for (const char* bad : {"    travel_angle_max_deg: 5\n", "    travel_angle_min_deg: 12\n",
+                          "    travel_angle_min_deg: -50\n", "    travel_angle_max_deg: 46\n"})
+    EXPECT_NE(input_error_of([&] {
+                PartSpec::load(write_temp("bad.yaml", spec(bad)));
+              }).find("travel_angle_min_deg <= travel_angle_deg <= travel_angle_max_deg"),
+              std::string::npos)
+        << bad;
+}
+
 TEST(CellSpec, DefaultCellLoadsAndBadOnesAreRejected) {
   const CellSpec cell = CellSpec::load(test::repo("scenes/cells/default.yaml"));
   EXPECT_TRUE(cell.part_pose.has_value());

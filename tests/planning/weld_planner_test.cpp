@@ -105,16 +105,30 @@ TEST(WeldPlanner, EverySampleReproducesItsTcpPoseAndRespectsTheLimits) {
   }
 }
 
-TEST(WeldPlanner, ArcOnSamplesLieOnTheirSeamWithTheSpecifiedTorchAngles) {
+// Each seam at the angles and in the direction its plan says it chose, within the spec's windows.
+TEST(WeldPlanner, ArcOnSamplesLieOnTheirSeamWithTheChosenTorchAngles) {
   for (const Planned& p : plans()) {
     if (!p.plan.ok()) continue;
+    for (size_t i = 0; i < p.plan.seams.size(); ++i) {
+      const PlannedSeam& ps = p.plan.seams[i];
+      const Seam& spec = p.part.seams[i];
+      EXPECT_LE(std::abs(ps.work_angle_rad - spec.work_angle_rad), spec.work_angle_tol_rad + 1e-12);
+      EXPECT_GE(ps.travel_angle_rad, spec.travel_angle_min_rad - 1e-12);
+      EXPECT_LE(ps.travel_angle_rad, spec.travel_angle_max_rad + 1e-12);
+      // The seam's ends as welded: the spec's, or swapped.
+      const Vec3 a = p.T_base_part * spec.point_at(0.0), b = p.T_base_part * spec.point_at(1.0);
+      EXPECT_LT(((ps.reversed ? b : a) - ps.start_base).norm(), 1e-9) << p.part.name << " " << spec.name;
+      EXPECT_LT(((ps.reversed ? a : b) - ps.end_base).norm(), 1e-9) << p.part.name << " " << spec.name;
+    }
     double worst_d = 0, worst_work = 0, worst_travel = 0;
     size_t arc_on = 0;
     for (const PlanSample& s : p.plan.samples) {
       if (!s.arc) continue;
       ++arc_on;
       ASSERT_GE(s.seam, 0);
-      const Seam& seam = p.part.seams[static_cast<size_t>(s.seam)];
+      const PlannedSeam& ps = p.plan.seams[static_cast<size_t>(s.seam)];
+      const Seam& spec = p.part.seams[static_cast<size_t>(s.seam)];
+      const Seam seam = ps.reversed ? spec.reversed() : spec;
       worst_d = std::max(worst_d, distance_to_seam(seam, p.T_base_part, s.T_base_tcp.translation()));
       if (s.phase != Phase::kWeld) continue;  // corners turn the torch on the spot
       // Work and travel angles from the torch axis a: travel = asin(a . d); work = angle of -a0 from n
@@ -137,8 +151,8 @@ TEST(WeldPlanner, ArcOnSamplesLieOnTheirSeamWithTheSpecifiedTorchAngles) {
       const double travel = std::asin(a.dot(d));
       const Vec3 b = -(a - a.dot(d) * d).normalized();
       const double work = std::atan2(b.dot(m), b.dot(n));  // n and m are orthogonal for these parts
-      worst_work = std::max(worst_work, std::abs(rad2deg(work - seam.work_angle_rad)));
-      worst_travel = std::max(worst_travel, std::abs(rad2deg(travel - seam.travel_angle_rad)));
+      worst_work = std::max(worst_work, std::abs(rad2deg(work - ps.work_angle_rad)));
+      worst_travel = std::max(worst_travel, std::abs(rad2deg(travel - ps.travel_angle_rad)));
     }
     EXPECT_GT(arc_on, 500u) << p.part.name;
     EXPECT_LT(worst_d, 1e-5) << p.part.name;  // 0.01 mm
@@ -195,6 +209,70 @@ TEST(WeldPlanner, UnreachableSeamsAreNamed) {
   ASSERT_FALSE(far.ok());
   EXPECT_NE(far.problems.front().find("seam 'front'"), std::string::npos) << far.problems.front();
   EXPECT_NE(far.problems.front().find("unreachable"), std::string::npos);
+}
+
+// A seam the arm cannot weld at the spec's travel angle: a stand-in cell in which any torch pushing more than
+// 5 deg hits something, the torch roll fixed. The planner welds it dragging, at the window's edge, and says
+// so; told to keep to the spec, it refuses the seam. Angles measured here from the torch axis, independently
+// of the planner.
+TEST(WeldPlanner, UsesTheSeamsAngleWindowWhereTheNominalCannotBeWelded) {
+  const RobotModel robot = load_cell_robot(CellSpec::load(test::repo("scenes/cells/default.yaml")));
+  PartSpec part = PartSpec::load(test::repo("scenes/parts/tube_on_plate.yaml"));
+  part.seams.resize(1);
+  Seam& seam = part.seams.front();
+  ASSERT_EQ(seam.kind, Seam::Kind::kLine);
+  seam.travel_angle_rad = deg2rad(10);
+  seam.travel_angle_min_rad = deg2rad(-15);
+  seam.travel_angle_max_rad = deg2rad(20);
+  seam.work_angle_tol_rad = 0.0;
+  const Iso3 T = planar_pose(0.48, 0.06, 0.0, 0.0);
+  const Vec3 d = T.linear() * (seam.end - seam.start).normalized();
+  // A fixed roll (the one a free plan chooses): the planner may then not turn the seam round.
+  const WeldPlan free_roll = plan_welds(part, T, robot);
+  ASSERT_TRUE(free_roll.ok()) << free_roll.problems.front();
+  seam.torch_roll_rad = free_roll.seams[0].roll_rad;
+  const int tcp = robot.require_link("tcp");
+  PlanSetting setting;
+  setting.collision = [&](const JointVector& q, bool welding) -> std::string {
+    if (!welding) return "";
+    const Vec3 axis = robot.forward_kinematics(q, tcp).linear().col(2);
+    return std::asin(axis.dot(d)) > deg2rad(5) ? "a torch pushing more than 5 deg" : "";
+  };
+  const WeldPlan plan = plan_welds(part, T, robot, setting);
+  ASSERT_TRUE(plan.ok()) << plan.problems.front();
+  ASSERT_EQ(plan.seams.size(), 1u);
+  EXPECT_FALSE(plan.seams[0].reversed);
+  EXPECT_NEAR(rad2deg(plan.seams[0].travel_angle_rad), -15.0, 1e-9);
+  size_t welded = 0;
+  for (const PlanSample& s : plan.samples)
+    if (s.phase == Phase::kWeld) {
+      ++welded;
+      EXPECT_NEAR(rad2deg(std::asin(s.T_base_tcp.linear().col(2).dot(d))), -15.0, 0.01);
+    }
+  EXPECT_GT(welded, 100u);
+  ASSERT_EQ(plan.notes.size(), 1u);
+  EXPECT_NE(plan.notes[0].find("travel -15 deg"), std::string::npos) << plan.notes[0];
+
+  setting.search_weld_window = false;
+  const WeldPlan strict = plan_welds(part, T, robot, setting);
+  ASSERT_FALSE(strict.ok());
+  EXPECT_NE(strict.problems.front().find("a torch pushing more than 5 deg"), std::string::npos)
+      << strict.problems.front();
+}
+
+// A seam welded the other way: the same points, travelled from the end, the direction turned round.
+TEST(Seam, ReversedRunsTheSamePointsBackwards) {
+  const PartSpec round = PartSpec::load(test::repo("scenes/parts/round_on_plate.yaml"));
+  const PartSpec tube = PartSpec::load(test::repo("scenes/parts/tube_on_plate.yaml"));
+  for (const Seam& s : {round.seams.front(), tube.seams.front()}) {
+    const Seam r = s.reversed();
+    EXPECT_NEAR(r.length_m(), s.length_m(), 1e-12);
+    for (double f : {0.0, 0.2, 0.5, 0.9, 1.0}) {
+      EXPECT_LT((r.point_at(f) - s.point_at(1.0 - f)).norm(), 1e-12) << s.name << " " << f;
+      EXPECT_LT((r.direction_at(f) + s.direction_at(1.0 - f)).norm(), 1e-9) << s.name << " " << f;
+      EXPECT_LT((r.wall_normal_at(f) - s.wall_normal_at(1.0 - f)).norm(), 1e-9) << s.name << " " << f;
+    }
+  }
 }
 
 TEST(Lspb, PaperLawAndFastestProfile) {
