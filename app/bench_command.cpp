@@ -48,6 +48,12 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using nlohmann::json;
 
+// The cell, with another robot file's arm and tooling when one is given.
+CellSpec with_robot(CellSpec cell, const std::string& robot_file) {
+  if (!robot_file.empty()) cell.use_robot_file(robot_file);
+  return cell;
+}
+
 // One part's cell, loaded once by the parent (children inherit it).
 struct BenchCell {
   CellSpec cell;
@@ -69,8 +75,8 @@ struct BenchCell {
     return *prepared;
   }
 
-  BenchCell(const std::string& file, const std::string& sweep)
-      : cell(CellSpec::load(file)),
+  BenchCell(const std::string& file, const std::string& sweep, const std::string& robot_file)
+      : cell(with_robot(CellSpec::load(file), robot_file)),
         part(PartSpec::load(cell.part_spec)),
         robot(load_cell_robot(cell)),
         program(SweepProgram::load(sweep.empty() ? cell.sweep_program : sweep, robot)),
@@ -133,6 +139,7 @@ json draw_json(const Draw& d, const std::vector<BenchCell>& cells, const BenchCo
   j["layout_seed"] = d.layout_seed;
   j["lidar_seed"] = d.lidar_seed;
   if (!cmd.sweep.empty()) j["sweep"] = std::filesystem::path(cmd.sweep).stem().string();
+  if (!cmd.robot.empty()) j["robot"] = std::filesystem::path(cmd.robot).stem().string();
   if (!cmd.viewpoints) j["viewpoints"] = false;
   if (cmd.mount_error_m > 0 || cmd.mount_error_rad > 0) {
     j["mount_error_mm"] = {rounded(1e3 * d.mount_xyz_m.x(), 1e-4), rounded(1e3 * d.mount_xyz_m.y(), 1e-4),
@@ -480,10 +487,10 @@ int run_bench(const BenchCommand& cmd_in) {
       cmd.cells.push_back(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/" + name + ".yaml");
   if (cmd.jobs <= 0) cmd.jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   std::vector<BenchCell> cells;
-  for (const std::string& f : cmd.cells) cells.emplace_back(f, cmd.sweep);
+  for (const std::string& f : cmd.cells) cells.emplace_back(f, cmd.sweep, cmd.robot);
   std::optional<BenchCell> calibration;
   if (cmd.calibrate)
-    calibration.emplace(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/calibration.yaml", "");
+    calibration.emplace(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/calibration.yaml", "", cmd.robot);
 
   std::vector<uint64_t> indices;
   for (int i = cmd.shard; i < cmd.trials; i += cmd.shards) indices.push_back(static_cast<uint64_t>(i));

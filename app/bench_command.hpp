@@ -22,15 +22,15 @@ struct BenchCommand {
   std::string out;                 ///< JSON lines, in index order
   std::vector<std::string> cells;  ///< the parts' cells, drawn among uniformly ("" = the three of scenes/)
   bool paper = true;               ///< the paper's pipeline on every scan, side by side
-  bool replay = true;
-  bool weld_window = true;  ///< the planner may use the seams' angle windows and either direction ///< plan
-                            ///< and replay (off: localization only)
+  bool replay = true;              ///< plan and replay (off: localization only)
+  bool weld_window = true;         ///< the planner may use the seams' angle windows and either direction
   double replay_step_s = 0.005;    ///< physics step of the replay (weldtwin run: 2.5 ms; see ReplaySetting)
   double timeout_s = 600.0;        ///< a trial running longer is killed and recorded as a timeout
   double mount_error_m = 0.0;      ///< LiDAR mount error drawn per trial: translation sigma per axis [m]
   double mount_error_rad = 0.0;    ///< and rotation sigma per axis [rad]
   double encoder_noise_rad = 0.0;  ///< joint encoder noise (sigma) on the recorded joint states [rad]
   std::string sweep;               ///< sweep program for every cell ("" = each cell's own)
+  std::string robot;               ///< robot file (arm and tooling) for every cell ("" = each cell's own)
   bool viewpoints = true;          ///< localize with every point's viewpoint (off: as other tools' clouds)
   bool calibrate =
       false;  ///< find each trial's mount from a sweep of the calibration cell first (as weldtwin calibrate)

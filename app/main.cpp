@@ -177,6 +177,11 @@ int main(int argc, char** argv) {
   bc->add_option("--sweep", bench.sweep,
                  "sweep program for every cell, e.g. scenes/sweeps/one_pass.yaml "
                  "(default: each cell's own)");
+  bc->add_option(
+        "--robot", bench.robot,
+        "robot file (arm and tooling) for every cell, e.g. scenes/robots/aubo_i5_bent22_cell.yaml for "
+        "the 22 deg swan-neck torch (default: each cell's own)")
+      ->check(CLI::ExistingFile);
   bc->add_flag("!--no-viewpoints", bench.viewpoints,
                "localize without the points' viewpoints, as clouds from other tools come");
   double replay_step_ms = 5.0;

@@ -128,6 +128,14 @@ bool is_yaml_path(const std::string& path) {
   return ext == ".yaml" || ext == ".yml";
 }
 
+// A robot file: urdf, package_dirs, tooling (paths relative to it).
+void parse_robot_file(const std::string& path, CellSpec& cell) {
+  const YAML::Node robot_file = yaml::load_file(path);
+  if (!robot_file.IsMap()) throw input_error(path, "a robot file is a mapping: urdf, package_dirs, tooling");
+  parse_urdf_ref(robot_file, path, cell);
+  parse_tooling(robot_file["tooling"], path, cell);
+}
+
 // The robot: a URDF path; {urdf: PATH, package_dirs: [DIR, ...]}; or a robot file (YAML: urdf, package_dirs,
 // tooling; paths relative to it) that cells share. Then the tooling the cell itself adds.
 void parse_robot(const YAML::Node& root, const std::string& file, CellSpec& cell) {
@@ -137,11 +145,7 @@ void parse_robot(const YAML::Node& root, const std::string& file, CellSpec& cell
   } else {
     const std::string path = existing(file, root, "robot");
     if (is_yaml_path(path)) {
-      const YAML::Node robot_file = yaml::load_file(path);
-      if (!robot_file.IsMap())
-        throw input_error(path, "a robot file is a mapping: urdf, package_dirs, tooling");
-      parse_urdf_ref(robot_file, path, cell);
-      parse_tooling(robot_file["tooling"], path, cell);
+      parse_robot_file(path, cell);
     } else {
       cell.robot_urdf = path;
     }
@@ -240,6 +244,21 @@ CellSpec CellSpec::load(const std::string& yaml_path) {
   } catch (const YAML::Exception& e) {
     throw input_error(yaml_path, "malformed cell: " + e.msg);
   }
+}
+
+void CellSpec::use_robot_file(const std::string& robot_yaml) {
+  if (!is_yaml_path(robot_yaml) || !std::filesystem::is_regular_file(robot_yaml))
+    throw input_error(robot_yaml, "a robot file (YAML: urdf, package_dirs, tooling) is needed here");
+  CellSpec swapped = *this;
+  swapped.robot_urdf.clear();
+  swapped.robot_package_dirs.clear();
+  swapped.tooling.clear();
+  try {
+    parse_robot_file(robot_yaml, swapped);
+  } catch (const YAML::Exception& e) {
+    throw input_error(robot_yaml, "malformed robot file: " + e.msg);
+  }
+  *this = std::move(swapped);
 }
 
 }  // namespace weldtwin

@@ -84,6 +84,9 @@ struct CellSpec {
 
   /// Loads and validates; throws InputError naming the file and the field.
   static CellSpec load(const std::string& yaml_path);
+  /// The robot, with its tooling, of a robot file instead of the cell's own (its tooling included): the same
+  /// cell with another torch, say. Throws InputError naming the file.
+  void use_robot_file(const std::string& robot_yaml);
 };
 
 }  // namespace weldtwin

@@ -56,6 +56,13 @@ Iso3 backed_off(const Iso3& T_tcp, double distance) {
 
 class Builder {
  public:
+  // What a piece of trajectory did: ran (its limits are then checked), failed (a slower try may still work:
+  // a line whose samples jumped between IK branches), or was blocked (every route it knows collides; a
+  // slower try would meet the same).
+  enum class Ran { kOk, kFailed, kBlocked };
+  static Ran as_ran(bool ok) { return ok ? Ran::kOk : Ran::kFailed; }
+  static Ran as_ran(Ran ran) { return ran; }
+
   Builder(const RobotModel& robot, const PlanSetting& setting, WeldPlan& plan)
       : robot_(robot),
         ik_(robot, "tcp"),
@@ -149,13 +156,15 @@ class Builder {
     size_t samples = 0, problems = 0;
     JointVector q = JointVector::Zero();
     double t = 0.0;
+    int branch = 0;
   };
-  Mark mark() const { return {plan_.samples.size(), plan_.problems.size(), q_, t_}; }
+  Mark mark() const { return {plan_.samples.size(), plan_.problems.size(), q_, t_, branch_}; }
   void rewind(const Mark& m) {
     plan_.samples.resize(m.samples);
     plan_.problems.resize(m.problems);
     q_ = m.q;
     t_ = m.t;
+    branch_ = m.branch;
   }
 
   // Whether any of the configurations (each with whether the arc is on) collides with the cell (never,
@@ -217,11 +226,11 @@ class Builder {
   // space if that is free; otherwise out of here along a straight line (straight up, or back along the
   // torch axis), across in joint space (directly, or by way of home, the arm folded up clear of the table),
   // and into `to` along the same kind of line.
-  bool transit(const JointVector& to, const std::string& what) {
+  Ran transit(const JointVector& to, const std::string& what) {
     const Mark start = mark();
     joint_move(to);
     std::string hit = collision_since(start.samples);
-    if (hit.empty()) return true;
+    if (hit.empty()) return Ran::kOk;
     rewind(start);
     const Iso3 here = ik_.fk(q_), there = ik_.fk(to);
     const double top = std::max(here.translation().z(), there.translation().z()) + set_.transit_lift_m;
@@ -236,7 +245,7 @@ class Builder {
         const Iso3 out = vertical ? up(here) : backed_off(here, set_.transit_lift_m);
         const Iso3 in = vertical ? up(there) : backed_off(there, set_.transit_lift_m);
         const bool legs = leg_out_across_in(here, out, via_home, in, there, to, what);
-        if (legs && collision_since(start.samples).empty()) return true;
+        if (legs && collision_since(start.samples).empty()) return Ran::kOk;
         rewind(start);
       }
     // Last: a path found in the free joint space, run waypoint to waypoint.
@@ -245,12 +254,12 @@ class Builder {
                         [&](const JointVector& q) { return set_.collision(q, false).empty(); });
     if (!path.empty()) {
       for (size_t k = 1; k < path.size(); ++k) joint_move(path[k]);
-      if ((q_ - to).cwiseAbs().maxCoeff() < 1e-9) return true;
+      if ((q_ - to).cwiseAbs().maxCoeff() < 1e-9) return Ran::kOk;
       rewind(start);
     }
     problem(what + ": collides with " + hit + " (straight, lifted, by way of home, or any way found in " +
             "joint space)");
-    return false;
+    return Ran::kBlocked;
   }
 
   // here -> out (line) -> [home] -> in (joint space) -> there (line, ending at `to`). Records no problems.
@@ -303,8 +312,8 @@ class Builder {
     std::vector<std::string> why;
     for (double scale : {1.0, 2.0, 4.0}) {
       slow_ = scale;
-      const bool ran = piece();
-      if (ran) {
+      const Ran ran = as_ran(piece());
+      if (ran == Ran::kOk) {
         const size_t from = n0 >= 2 ? n0 - 2 : 0;
         const std::vector<PlanSample> window(plan_.samples.begin() + static_cast<long>(from),
                                              plan_.samples.end());
@@ -317,7 +326,7 @@ class Builder {
         why.assign(plan_.problems.begin() + static_cast<long>(p0), plan_.problems.end());
       }
       rewind(start);
-      if (is_weld) break;
+      if (is_weld || ran == Ran::kBlocked) break;
     }
     slow_ = 1.0;
     for (const std::string& w : why)
@@ -574,117 +583,151 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
                               rev});
       std::stable_sort(ways.begin(), ways.end(), [](const Way& x, const Way& y) { return x.cost < y.cost; });
     }
-    std::string nominal_problem;
-    const Way* way = nullptr;
-    for (const Way& w : ways) {
-      const std::string problem = split({&w.seam, T_base_part, w.seam.length_m(), w.work, w.travel});
-      if (problem.empty()) {
-        way = &w;
-        break;
-      }
-      if (nominal_problem.empty()) nominal_problem = problem;
-    }
-    if (!way) {
-      std::string tried;
-      if (ways.size() > 1)
-        tried = "; tried " + std::to_string(ways.size()) + " ways (" +
-                (ways.size() > 2 || !ways.back().reversed ? "work and travel angles within its window" : "") +
-                (ways.size() > 2 && ways.back().reversed ? ", " : "") +
-                (ways.back().reversed ? "both directions" : "") + ")";
-      plan.problems.push_back(what + ": " + nominal_problem + tried);
-      break;
-    }
-    const Seam& seam = way->seam;
-    const SeamGeometry g{&seam, T_base_part, seam.length_m(), way->work, way->travel};
-    PlannedSeam ps;
-    ps.name = seam.name;
-    ps.start_base = g.point(0.0);
-    ps.end_base = g.point(g.length);
-    ps.length_m = g.length;
-    ps.speed_m_s = seam.speed_m_s;
-    ps.work_angle_rad = way->work;
-    ps.travel_angle_rad = way->travel;
-    ps.reversed = way->reversed;
-    if (way != &ways.front()) {
-      std::ostringstream note;
-      note << what << ": welded";
-      if (way->reversed) note << " from its end to its start";
-      if (way->cost > 1e-3)
-        note << (way->reversed ? "," : "") << " at work " << std::lround(rad2deg(way->work))
-             << " deg, travel " << std::lround(rad2deg(way->travel)) << " deg";
-      note << " (as specified: " << nominal_problem << ")";
-      plan.notes.push_back(note.str());
-    }
-    ps.pieces = static_cast<int>(pieces.size());
-    ps.roll_rad = choices.front().roll;
-    for (const Choice& c : choices) ps.roll_per_piece_rad.push_back(c.roll);
-    if (pieces.size() > 1) {
-      std::ostringstream note;
-      note << what << ": J6 cannot follow it in one go; welded in " << pieces.size()
-           << " pieces with re-grips at";
-      for (size_t k = 1; k < pieces.size(); ++k) note << ' ' << 1000.0 * pieces[k].first << " mm";
-      plan.notes.push_back(note.str());
-    }
 
-    for (size_t k = 0; k < pieces.size() && plan.problems.empty(); ++k) {
-      const Choice& c = choices[k];
-      const Iso3 start = g.tcp(pieces[k].first, c.roll);
-      const size_t problems_before = plan.problems.size();
-      bool through_corner = false;
-      if (at_corner && k == 0 && c.branch == branch) {
-        // Weld through the corner: turn the torch on the spot from the previous seam's end. If the turn
-        // cannot be made within the limits, stop and start again instead.
-        const Iso3 here = plan.samples.back().T_base_tcp;
-        through_corner = b.checked(
-            [&] { return b.corner(here, start, static_cast<int>(i), what + " (corner)"); }, false, what);
-        if (!through_corner) plan.problems.resize(problems_before);
-      }
-      if (!through_corner) {
-        if (at_corner) {
+    // Runs the pieces of a way that split: to each piece (through the corner from the previous seam, or
+    // departing from it, a transit and an approach), its weld and its departure. False, with the problem
+    // recorded, when a move on the way is blocked.
+    auto weld_pieces = [&](const SeamGeometry& g) {
+      for (size_t k = 0; k < pieces.size(); ++k) {
+        const Choice& c = choices[k];
+        const Iso3 start = g.tcp(pieces[k].first, c.roll);
+        const size_t problems_before = plan.problems.size();
+        bool through_corner = false;
+        if (at_corner && k == 0 && c.branch == branch) {
+          // Weld through the corner: turn the torch on the spot from the previous seam's end. If the turn
+          // cannot be made within the limits, stop and start again instead.
+          const Iso3 here = plan.samples.back().T_base_tcp;
+          through_corner = b.checked(
+              [&] { return b.corner(here, start, static_cast<int>(i), what + " (corner)"); }, false, what);
+          if (!through_corner) plan.problems.resize(problems_before);
+        }
+        if (!through_corner) {
+          if (at_corner) {
+            const Iso3 here = plan.samples.back().T_base_tcp;
+            if (!b.checked(
+                    [&] {
+                      return b.line(here, backed_off(here, setting.approach_m), Phase::kDeparture,
+                                    "departure before " + what);
+                    },
+                    false, "departure before " + what))
+              return false;
+          }
+          b.set_branch(c.branch);
+          if (!b.checked([&] { return b.transit(c.q_start, "transit to " + what); }, false,
+                         "transit to " + what))
+            return false;
+          if (!b.checked(
+                  [&] {
+                    return b.line(moved(start, c.in_dir, setting.approach_m), start, Phase::kApproach,
+                                  "approach to " + what);
+                  },
+                  false, "approach to " + what))
+            return false;
+        }
+        branch = c.branch;
+        if (!b.checked(
+                [&] { return b.weld(g, pieces[k].first, pieces[k].second, c.roll, static_cast<int>(i)); },
+                true, what))
+          return false;
+        at_corner = true;
+        const bool next_joins =
+            setting.weld_through_corners && i + 1 < part.seams.size() && k + 1 == pieces.size() &&
+            (g.point(g.length) - T_base_part * part.seams[i + 1].start).norm() < setting.corner_tolerance_m;
+        if (!next_joins) {
           const Iso3 here = plan.samples.back().T_base_tcp;
           if (!b.checked(
                   [&] {
-                    return b.line(here, backed_off(here, setting.approach_m), Phase::kDeparture,
-                                  "departure before " + what);
+                    return b.line(here, moved(here, c.out_dir, setting.approach_m), Phase::kDeparture,
+                                  "departure from " + what);
                   },
-                  false, "departure before " + what))
-            break;
+                  false, "departure from " + what))
+            return false;
+          at_corner = false;
         }
-        b.set_branch(c.branch);
-        if (!b.checked([&] { return b.transit(c.q_start, "transit to " + what); }, false,
-                       "transit to " + what))
-          break;
-        if (!b.checked(
-                [&] {
-                  return b.line(moved(start, c.in_dir, setting.approach_m), start, Phase::kApproach,
-                                "approach to " + what);
-                },
-                false, "approach to " + what))
-          break;
       }
-      branch = c.branch;
-      if (!b.checked(
-              [&] { return b.weld(g, pieces[k].first, pieces[k].second, c.roll, static_cast<int>(i)); }, true,
-              what))
-        break;
-      at_corner = true;
-      const bool next_joins =
-          setting.weld_through_corners && i + 1 < part.seams.size() && k + 1 == pieces.size() &&
-          (g.point(g.length) - T_base_part * part.seams[i + 1].start).norm() < setting.corner_tolerance_m;
-      if (!next_joins) {
-        const Iso3 here = plan.samples.back().T_base_tcp;
-        if (!b.checked(
-                [&] {
-                  return b.line(here, moved(here, c.out_dir, setting.approach_m), Phase::kDeparture,
-                                "departure from " + what);
-                },
-                false, "departure from " + what))
+      return true;
+    };
+
+    // The first way that splits and whose moves are clear wins. A way whose moves fail (a transit blocked by
+    // a clamp, say) is taken back and the seam tried from its other end: the other angles of the same
+    // direction would move to within a centimetre or two of the same poses. What ruled out the spec's way
+    // is said in a note (or the refusal).
+    const Builder::Mark before = b.mark();
+    const bool at_corner_before = at_corner;
+    const int branch_before = branch;
+    const size_t notes_before = plan.notes.size();
+    std::string nominal_problem;        // what ruled out the first way
+    bool nominal_split_failed = false;  // ... when splitting it (else on a move, which the problem names)
+    bool welded = false;
+    bool moves_failed[2] = {false, false};  // per direction: forward, reversed
+    int tried = 0;
+    bool tried_angles = false, tried_reversed = false;
+    for (const Way& way : ways) {
+      if (moves_failed[way.reversed]) continue;
+      ++tried;
+      tried_angles |= way.cost > 1e-3;
+      tried_reversed |= way.reversed;
+      const SeamGeometry g{&way.seam, T_base_part, way.seam.length_m(), way.work, way.travel};
+      std::string problem = split(g);
+      const bool split_failed = !problem.empty();
+      if (!split_failed) {
+        plan.notes.resize(notes_before);
+        if (&way != &ways.front()) {
+          std::ostringstream note;
+          note << what << ": welded";
+          if (way.reversed) note << " from its end to its start";
+          if (way.cost > 1e-3)
+            note << (way.reversed ? "," : "") << " at work " << std::lround(rad2deg(way.work))
+                 << " deg, travel " << std::lround(rad2deg(way.travel)) << " deg";
+          note << " (as specified: " << nominal_problem << ")";
+          plan.notes.push_back(note.str());
+        }
+        if (pieces.size() > 1) {
+          std::ostringstream note;
+          note << what << ": J6 cannot follow it in one go; welded in " << pieces.size()
+               << " pieces with re-grips at";
+          for (size_t k = 1; k < pieces.size(); ++k) note << ' ' << 1000.0 * pieces[k].first << " mm";
+          plan.notes.push_back(note.str());
+        }
+        if (weld_pieces(g)) {
+          PlannedSeam ps;
+          ps.name = way.seam.name;
+          ps.start_base = g.point(0.0);
+          ps.end_base = g.point(g.length);
+          ps.length_m = g.length;
+          ps.speed_m_s = way.seam.speed_m_s;
+          ps.work_angle_rad = way.work;
+          ps.travel_angle_rad = way.travel;
+          ps.reversed = way.reversed;
+          ps.pieces = static_cast<int>(pieces.size());
+          ps.roll_rad = choices.front().roll;
+          for (const Choice& c : choices) ps.roll_per_piece_rad.push_back(c.roll);
+          plan.seams.push_back(ps);
+          welded = true;
           break;
-        at_corner = false;
+        }
+        problem = plan.problems.front();
+        moves_failed[way.reversed] = true;
+        b.rewind(before);
+        plan.notes.resize(notes_before);
+        at_corner = at_corner_before;
+        branch = branch_before;
+      }
+      if (nominal_problem.empty()) {
+        nominal_problem = problem;
+        nominal_split_failed = split_failed;
       }
     }
-    plan.seams.push_back(ps);
-    if (!plan.problems.empty()) break;
+    if (!welded) {
+      std::string also;
+      if (tried > 1) {
+        also = "; tried " + std::to_string(tried) + " ways (" +
+               (tried_angles ? "work and travel angles within its window" : "") +
+               (tried_angles && tried_reversed ? ", " : "") + (tried_reversed ? "both directions" : "") + ")";
+      }
+      plan.problems.push_back((nominal_split_failed ? what + ": " : std::string()) + nominal_problem + also);
+      break;
+    }
   }
   if (plan.problems.empty()) {
     if (at_corner) {

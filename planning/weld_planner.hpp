@@ -41,10 +41,11 @@ struct PlanSetting {
   /// rolls whose stations, approaches or departures collide are not chosen, and a transit that would collide
   /// is lifted instead. Unset: no collision checks.
   std::function<std::string(const JointVector& q, bool welding)> collision;
-  double transit_lift_m = 0.15;
+  double transit_lift_m = 0.15;  ///< how far a lifted transit backs off along the torch axis at both ends
   /// When a seam cannot be welded as its spec says, try the other ways it allows: the edges of its work and
-  /// travel angle windows, and (a free roll) the other direction. Off: the spec's angles and direction only.
-  bool search_weld_window = true;  ///< how far a lifted transit backs off along the torch axis at both ends
+  /// travel angle windows, and (a free roll) the other direction; a way whose transit, approach or departure
+  /// is blocked is taken back and the next one tried. Off: the spec's angles and direction only.
+  bool search_weld_window = true;
 };
 
 enum class Phase { kTransit, kApproach, kWeld, kCorner, kDeparture };

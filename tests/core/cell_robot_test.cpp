@@ -85,6 +85,41 @@ TEST(CellRobot, ACellAddsItsToolingToTheRobotFile) {
   }
 }
 
+// The 22 deg swan-neck torch (a robot file a cell can take instead of its own): the TCP, found by FK through
+// the tooling links, lies where the neck's geometry puts it, computed here from the flange alone: 120 mm
+// along the flange axis to the bend, then 150 mm (110 neck, 25 nozzle, 15 stick-out) along the flange axis
+// turned 22 deg about the flange's x; the TCP's z is the bent axis, and the nozzle ends 15 mm before the TCP.
+TEST(CellRobot, TheSwanNeckTorchsTcpLiesAtTheEndOfItsBentNeck) {
+  CellSpec cell = CellSpec::load(test::repo("scenes/cells/default.yaml"));
+  cell.use_robot_file(test::repo("scenes/robots/aubo_i5_bent22_cell.yaml"));
+  ASSERT_EQ(cell.tooling.size(), 4u);  // the robot file's tooling replaces the cell's
+  const RobotModel robot = load_cell_robot(cell);
+  const RobotLink& torch = robot.links()[static_cast<size_t>(robot.require_link("torch"))];
+  EXPECT_NEAR(torch.inertial.mass_kg, 1.1, 1e-12);
+  ASSERT_EQ(torch.collision.size(), 5u);
+  const LinkGeometry& nozzle = torch.collision.back();
+  ASSERT_EQ(nozzle.type, LinkGeometry::Type::kCylinder);
+  const double bend = deg2rad(22.0);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-kPi, kPi);
+  for (int i = 0; i < 50; ++i) {
+    JointVector q;
+    for (int k = 0; k < 6; ++k) q[k] = u(rng);
+    const Iso3 flange = robot.forward_kinematics(q, robot.require_link("flange"));
+    const Vec3 axis = flange.linear() * Vec3(0.0, -std::sin(bend), std::cos(bend));
+    const Vec3 tip = flange * Vec3(0, 0, 0.120) + 0.150 * axis;
+    const Iso3 tcp = robot.forward_kinematics(q, robot.require_link("tcp"));
+    EXPECT_LT((tcp.translation() - tip).norm(), 2e-6);
+    EXPECT_LT((tcp.linear().col(2) - axis).norm(), 1e-9);
+    EXPECT_NEAR(std::acos(tcp.linear().col(2).dot(flange.linear().col(2))), bend, 1e-9);
+    // The nozzle: a cylinder along the bent axis whose end face is 15 mm short of the TCP.
+    const Iso3 link = robot.forward_kinematics(q, robot.require_link("torch"));
+    const Iso3 geom = link * nozzle.T_link_geom;
+    EXPECT_LT((geom.linear().col(2) - axis).norm(), 1e-6);
+    EXPECT_LT((geom.translation() + 0.5 * nozzle.size.y() * axis - (tip - 0.015 * axis)).norm(), 2e-6);
+  }
+}
+
 std::string load_error(const std::string& path) {
   try {
     load_cell_robot(CellSpec::load(path));

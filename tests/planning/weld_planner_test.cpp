@@ -261,6 +261,58 @@ TEST(WeldPlanner, UsesTheSeamsAngleWindowWhereTheNominalCannotBeWelded) {
 }
 
 // A seam welded the other way: the same points, travelled from the end, the direction turned round.
+// A way that splits but whose transit is blocked is taken back, and the seam welded from its other end. The
+// stand-in obstacle: a ball of 18 mm round the spec's approach pose at the seam's start, hollow at its centre
+// (3 mm) and open along the approach line only, so that the approach is clear and any transit into it
+// collides. Pushing at 20 deg, the other direction's departure from that end passes the ball 26 mm off.
+TEST(WeldPlanner, TakesBackAWayWhoseTransitIsBlockedAndWeldsFromTheOtherEnd) {
+  const RobotModel robot = load_cell_robot(CellSpec::load(test::repo("scenes/cells/default.yaml")));
+  PartSpec part = PartSpec::load(test::repo("scenes/parts/tube_on_plate.yaml"));
+  part.seams.resize(1);
+  Seam& seam = part.seams.front();
+  seam.travel_angle_rad = seam.travel_angle_min_rad = seam.travel_angle_max_rad = deg2rad(20);
+  seam.work_angle_tol_rad = 0.0;
+  const Iso3 T = planar_pose(0.48, 0.06, 0.0, 0.0);
+  const WeldPlan free = plan_welds(part, T, robot);
+  ASSERT_TRUE(free.ok()) << free.problems.front();
+  ASSERT_FALSE(free.seams[0].reversed);
+  const PlanSample* first_weld = nullptr;
+  for (const PlanSample& s : free.samples)
+    if (s.phase == Phase::kWeld && !first_weld) first_weld = &s;
+  ASSERT_NE(first_weld, nullptr);
+  const Vec3 start = T * seam.start;
+  ASSERT_LT((first_weld->T_base_tcp.translation() - start).norm(), 1e-6);
+  const Vec3 approach = start - 0.04 * first_weld->T_base_tcp.linear().col(2);
+  const auto in_ball = [&](const Vec3& p) {
+    const double r = (p - approach).norm();
+    if (r < 0.003 || r > 0.018) return false;
+    const Vec3 along = (start - approach).normalized();
+    return (p - approach - (p - approach).dot(along) * along).norm() > 2e-4 || (p - approach).dot(along) < 0;
+  };
+  const int tcp = robot.require_link("tcp");
+  PlanSetting setting;
+  setting.collision = [&](const JointVector& q, bool welding) -> std::string {
+    if (welding) return "";
+    return in_ball(robot.forward_kinematics(q, tcp).translation()) ? "a stand-in ball" : "";
+  };
+  const WeldPlan plan = plan_welds(part, T, robot, setting);
+  ASSERT_TRUE(plan.ok()) << plan.problems.front();
+  ASSERT_EQ(plan.seams.size(), 1u);
+  EXPECT_TRUE(plan.seams[0].reversed);
+  EXPECT_LT((plan.seams[0].end_base - start).norm(), 1e-6);
+  ASSERT_EQ(plan.notes.size(), 1u);
+  EXPECT_NE(plan.notes[0].find("from its end to its start"), std::string::npos) << plan.notes[0];
+  EXPECT_NE(plan.notes[0].find("transit to seam"), std::string::npos) << plan.notes[0];
+  for (const PlanSample& s : plan.samples)
+    if (!s.arc) EXPECT_FALSE(in_ball(s.T_base_tcp.translation())) << "t = " << s.t_s << " s";
+
+  setting.search_weld_window = false;
+  const WeldPlan strict = plan_welds(part, T, robot, setting);
+  ASSERT_FALSE(strict.ok());
+  EXPECT_EQ(strict.problems.front().rfind("transit to seam", 0), 0u) << strict.problems.front();
+  EXPECT_NE(strict.problems.front().find("a stand-in ball"), std::string::npos) << strict.problems.front();
+}
+
 TEST(Seam, ReversedRunsTheSamePointsBackwards) {
   const PartSpec round = PartSpec::load(test::repo("scenes/parts/round_on_plate.yaml"));
   const PartSpec tube = PartSpec::load(test::repo("scenes/parts/tube_on_plate.yaml"));
