@@ -172,8 +172,8 @@ int main(int argc, char** argv) {
   bc->add_flag("!--no-paper", bench.paper, "skip the paper's pipeline");
   bc->add_flag("!--no-replay", bench.replay, "localization only: no plan, no replay");
   bc->add_flag("!--spec-angles-only", bench.weld_window,
-               "plan every seam at its spec's nominal work and travel angles and in its direction only (no "
-               "search of the angle windows or of the other direction)");
+               "plan every seam at its spec's nominal work and travel angles, in its direction and in the "
+               "spec's order only (no search of the angle windows, the other direction or the seam order)");
   bc->add_option("--sweep", bench.sweep,
                  "sweep program for every cell, e.g. scenes/sweeps/one_pass.yaml "
                  "(default: each cell's own)");

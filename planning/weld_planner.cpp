@@ -456,6 +456,13 @@ class Builder {
   mutable double rejected_margin_ = -1.0;
 };
 
+// How welding one seam from where the plan stands went.
+struct SeamAttempt {
+  bool ok = false;
+  std::string refusal;        ///< why no way of it works ("" when one does)
+  bool moves_failed = false;  ///< some way of it was blocked on its moves (elsewhere it may not be)
+};
+
 }  // namespace
 
 const char* phase_name(Phase phase) {
@@ -487,7 +494,9 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
 
   bool at_corner = false;  // the TCP stands at the start of the next seam with the arc on
   int branch = -1;
-  for (size_t i = 0; i < part.seams.size(); ++i) {
+  // Welds seam i from where the plan stands, the first of its ways that works; when none does, the plan is
+  // as it was before and the refusal says why.
+  auto weld_seam = [&](size_t i) -> SeamAttempt {
     const Seam& spec_seam = part.seams[i];
     const std::string what = "seam '" + spec_seam.name + "'";
     // Split a way of welding the seam into pieces that one roll and one IK branch can weld (more than one:
@@ -725,9 +734,39 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
                (tried_angles ? "work and travel angles within its window" : "") +
                (tried_angles && tried_reversed ? ", " : "") + (tried_reversed ? "both directions" : "") + ")";
       }
-      plan.problems.push_back((nominal_split_failed ? what + ": " : std::string()) + nominal_problem + also);
+      return {false, (nominal_split_failed ? what + ": " : std::string()) + nominal_problem + also,
+              moves_failed[0] || moves_failed[1]};
+    }
+    return {true, "", false};
+  };
+
+  // The seams in the spec's order. When one's moves are blocked from where the previous one ended, the
+  // seams still to weld are tried in its place, and it is tried again after them, from elsewhere (not when
+  // corners are welded through: that needs the spec's order).
+  std::vector<size_t> left(part.seams.size());
+  for (size_t k = 0; k < left.size(); ++k) left[k] = k;
+  const bool may_reorder = setting.search_weld_window && !setting.weld_through_corners;
+  while (!left.empty()) {
+    std::optional<SeamAttempt> refused;  // the next seam in the spec's order
+    size_t chosen = left.size();
+    for (size_t k = 0; k < left.size(); ++k) {
+      SeamAttempt a = weld_seam(left[k]);
+      if (a.ok) {
+        chosen = k;
+        break;
+      }
+      if (!refused) refused = a;
+      if (!refused->moves_failed || !may_reorder) break;
+    }
+    if (chosen == left.size()) {
+      plan.problems.push_back(refused->refusal);
       break;
     }
+    if (chosen > 0)
+      plan.notes.push_back("seam '" + part.seams[left[chosen]].name + "': welded before seam '" +
+                           part.seams[left[0]].name + "' (from where the plan stood: " + refused->refusal +
+                           ")");
+    left.erase(left.begin() + static_cast<long>(chosen));
   }
   if (plan.problems.empty()) {
     if (at_corner) {

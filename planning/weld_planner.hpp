@@ -44,7 +44,8 @@ struct PlanSetting {
   double transit_lift_m = 0.15;  ///< how far a lifted transit backs off along the torch axis at both ends
   /// When a seam cannot be welded as its spec says, try the other ways it allows: the edges of its work and
   /// travel angle windows, and (a free roll) the other direction; a way whose transit, approach or departure
-  /// is blocked is taken back and the next one tried. Off: the spec's angles and direction only.
+  /// is blocked is taken back and the seam tried from its other end, and then the seams still to weld are
+  /// tried before it. Off: the spec's angles, direction and order only.
   bool search_weld_window = true;
 };
 

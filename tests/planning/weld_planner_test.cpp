@@ -313,6 +313,66 @@ TEST(WeldPlanner, TakesBackAWayWhoseTransitIsBlockedAndWeldsFromTheOtherEnd) {
   EXPECT_NE(strict.problems.front().find("a stand-in ball"), std::string::npos) << strict.problems.front();
 }
 
+// Seams are welded in the spec's order, unless one cannot be reached from where the previous one left the
+// arm: the seams still to weld are then tried first. The stand-in: a wall across the table (the TCP off the
+// weld may not cross a 40 mm band of y), two 150 mm seams crossing it, fixed rolls (no seam turned round).
+// The spec's first seam starts beyond the wall from home; welding the other first, every transit stays on
+// its side (the welds cross the wall, as a torch may pass over what lies below it).
+TEST(WeldPlanner, WeldsAnotherSeamFirstWhenTheNextOneIsBlockedFromHere) {
+  const RobotModel robot = load_cell_robot(CellSpec::load(test::repo("scenes/cells/default.yaml")));
+  const int tcp = robot.require_link("tcp");
+  const double home_y = robot.forward_kinematics(PlanSetting().home, tcp).translation().y();
+  PartSpec part = PartSpec::load(test::repo("scenes/parts/tube_on_plate.yaml"));
+  Seam line = part.seams.front();
+  ASSERT_EQ(line.kind, Seam::Kind::kLine);
+  const Vec3 along = (line.end - line.start).normalized();
+  const Vec3 mid = 0.5 * (line.start + line.end);
+  line.start = mid - 0.075 * along;
+  line.end = mid + 0.075 * along;
+  // The part turned so that the line runs along +y of the base, its middle at (0.45, wall_y).
+  const double wall_y = home_y + 0.15;
+  const double yaw = kPi / 2 - std::atan2(along.y(), along.x());
+  Iso3 T = planar_pose(0.0, 0.0, 0.0, yaw);
+  T.translation() = Vec3(0.45, wall_y, 0.0) - T.linear() * Vec3(mid.x(), mid.y(), 0.0);
+  ASSERT_NEAR((T * line.end).y() - (T * line.start).y(), 0.15, 1e-9);
+  Seam down = line.reversed(), up = line;  // down starts beyond the wall (home is below it)
+  down.name = "down";
+  up.name = "up";
+  part.seams = {down, up};
+  const WeldPlan free = plan_welds(part, T, robot);
+  ASSERT_TRUE(free.ok()) << free.problems.front();
+  for (size_t k = 0; k < 2; ++k) part.seams[k].torch_roll_rad = free.seams[k].roll_rad;
+  const auto in_wall = [&](const Vec3& p) { return std::abs(p.y() - wall_y) < 0.02; };
+  PlanSetting setting;
+  setting.collision = [&](const JointVector& q, bool welding) -> std::string {
+    return !welding && in_wall(robot.forward_kinematics(q, tcp).translation()) ? "a stand-in wall" : "";
+  };
+  const WeldPlan plan = plan_welds(part, T, robot, setting);
+  ASSERT_TRUE(plan.ok()) << plan.problems.front();
+  ASSERT_EQ(plan.seams.size(), 2u);
+  EXPECT_EQ(plan.seams[0].name, "up");
+  EXPECT_EQ(plan.seams[1].name, "down");
+  EXPECT_FALSE(plan.seams[0].reversed || plan.seams[1].reversed);
+  bool noted = false;
+  for (const std::string& n : plan.notes)
+    noted |= n.find("seam 'up': welded before seam 'down'") != std::string::npos &&
+             n.find("a stand-in wall") != std::string::npos;
+  EXPECT_TRUE(noted) << (plan.notes.empty() ? "no notes" : plan.notes.front());
+  // The wall crossed only arc on, and each seam's samples carry its own index in the spec.
+  int first_arc_seam = -1;
+  for (const PlanSample& s : plan.samples) {
+    if (!s.arc) EXPECT_FALSE(in_wall(s.T_base_tcp.translation())) << "t = " << s.t_s << " s";
+    if (s.arc && first_arc_seam < 0) first_arc_seam = s.seam;
+  }
+  EXPECT_EQ(first_arc_seam, 1);
+
+  setting.search_weld_window = false;
+  const WeldPlan strict = plan_welds(part, T, robot, setting);
+  ASSERT_FALSE(strict.ok());
+  EXPECT_NE(strict.problems.front().find("transit to seam 'down'"), std::string::npos)
+      << strict.problems.front();
+}
+
 TEST(Seam, ReversedRunsTheSamePointsBackwards) {
   const PartSpec round = PartSpec::load(test::repo("scenes/parts/round_on_plate.yaml"));
   const PartSpec tube = PartSpec::load(test::repo("scenes/parts/tube_on_plate.yaml"));
