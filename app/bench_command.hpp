@@ -23,7 +23,7 @@ struct BenchCommand {
   std::vector<std::string> cells;  ///< the parts' cells, drawn among uniformly ("" = the three of scenes/)
   bool paper = true;               ///< the paper's pipeline on every scan, side by side
   bool replay = true;              ///< plan and replay (off: localization only)
-  bool weld_window = true;         ///< the planner may use the seams' angle windows and either direction
+  bool weld_window = true;         ///< the planner may search the seams' angle windows, directions and order
   double replay_step_s = 0.005;    ///< physics step of the replay (weldtwin run: 2.5 ms; see ReplaySetting)
   double timeout_s = 600.0;        ///< a trial running longer is killed and recorded as a timeout
   double mount_error_m = 0.0;      ///< LiDAR mount error drawn per trial: translation sigma per axis [m]

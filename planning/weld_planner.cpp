@@ -680,7 +680,6 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
       std::string problem = split(g);
       const bool split_failed = !problem.empty();
       if (!split_failed) {
-        plan.notes.resize(notes_before);
         if (&way != &ways.front()) {
           std::ostringstream note;
           note << what << ": welded";

@@ -304,7 +304,9 @@ TEST(WeldPlanner, TakesBackAWayWhoseTransitIsBlockedAndWeldsFromTheOtherEnd) {
   EXPECT_NE(plan.notes[0].find("from its end to its start"), std::string::npos) << plan.notes[0];
   EXPECT_NE(plan.notes[0].find("transit to seam"), std::string::npos) << plan.notes[0];
   for (const PlanSample& s : plan.samples)
-    if (!s.arc) EXPECT_FALSE(in_ball(s.T_base_tcp.translation())) << "t = " << s.t_s << " s";
+    if (!s.arc) {
+      EXPECT_FALSE(in_ball(s.T_base_tcp.translation())) << "t = " << s.t_s << " s";
+    }
 
   setting.search_weld_window = false;
   const WeldPlan strict = plan_welds(part, T, robot, setting);
@@ -361,7 +363,9 @@ TEST(WeldPlanner, WeldsAnotherSeamFirstWhenTheNextOneIsBlockedFromHere) {
   // The wall crossed only arc on, and each seam's samples carry its own index in the spec.
   int first_arc_seam = -1;
   for (const PlanSample& s : plan.samples) {
-    if (!s.arc) EXPECT_FALSE(in_wall(s.T_base_tcp.translation())) << "t = " << s.t_s << " s";
+    if (!s.arc) {
+      EXPECT_FALSE(in_wall(s.T_base_tcp.translation())) << "t = " << s.t_s << " s";
+    }
     if (s.arc && first_arc_seam < 0) first_arc_seam = s.seam;
   }
   EXPECT_EQ(first_arc_seam, 1);
