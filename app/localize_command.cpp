@@ -51,6 +51,7 @@ nlohmann::json pose_to_json(const PoseEstimate& pose) {
     out["covariance_yaw_x_y"].push_back(
         {pose.covariance(r, 0), pose.covariance(r, 1), pose.covariance(r, 2)});
   if (pose.rays_cast) out["see_through_share"] = pose.see_through_share;
+  if (pose.rays_cast && pose.reached_coverage >= 0) out["reached_coverage"] = pose.reached_coverage;
   out["beyond_share"] = pose.beyond_share;
   out["beyond_extent_mm"] = 1e3 * pose.beyond_extent_m;
   if (!pose.rays_cast) {

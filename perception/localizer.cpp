@@ -111,45 +111,70 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   const std::vector<Hypothesis>& hyps = search.hypotheses;
   stage("search");
 
-  // 4. Refinement: every hypothesis coarsely, the best few distinct fully.
-  std::vector<Candidate> coarse(hyps.size());
-  parallel_for(hyps.size(), s.threads, [&](size_t i) {
-    const Iso3 P0 = planar_pose(hyps[i].x, hyps[i].y, 0.0, hyps[i].yaw).inverse();
-    const IcpResult r = planar_icp(thinned(points_near_pose(scene.icp_points, model, P0, s.icp),
-                                           static_cast<size_t>(s.icp.coarse_points)),
-                                   scene, model, P0, s.icp.coarse_iterations, false, s.icp);
-    coarse[i] = {r.P, r, score_pose(scene, footprint, model, r.P, s.score)};
-  });
-  // A pose that puts the part where the table is seen is no candidate; of the rest, the best few distinct.
-  auto better = [&](const Candidate& a, const Candidate& b) {
-    return better_score(a.score, b.score, s.score);
+  // 4. Refinement, in batches of the search's hypotheses (most promising first): every hypothesis of a batch
+  // coarsely, the best few distinct fully. The next batch only when no finalist so far is allowed by the
+  // scan (the table seen, or rays through it, where it would stand): a short sweep sees little of the part,
+  // and its peaks may be lower than those of clamps and clutter.
+  auto better = [&](const Candidate& a, const Candidate& b) { return better_score(a.score, b.score); };
+  // What the rays say of a candidate: none may go through the part, and what they reached of it must be seen.
+  auto look_with_rays = [&](Candidate& c) {
+    const SeeThrough rays = rays_through_model(scene, scan_base, viewpoints_base, model, c.P, s.see_through);
+    c.score.see_through = rays.share();
+    c.score.ray_count = rays.rays;
+    c.score.through_count = rays.through;
+    if (std::find(rays.reached.begin(), rays.reached.end(), 1) != rays.reached.end())
+      c.score.reached_coverage = coverage(scene, model, c.P, rays.reached, s.score);
+    c.rays_looked = true;
   };
-  std::sort(coarse.begin(), coarse.end(), better);
-  std::vector<const Candidate*> chosen;
-  for (const Candidate& r : coarse) {
-    if (static_cast<int>(chosen.size()) >= s.finalists) break;
-    bool dup = false;
-    for (const Candidate* o : chosen) {
-      const Iso3 D = o->P * r.P.inverse();
-      dup = dup || (D.translation().norm() < s.distinct_finalist_m &&
-                    Eigen::AngleAxisd(D.linear()).angle() < deg2rad(s.distinct_finalist_deg));
+  auto distinct_from = [&](const Candidate& r, const std::vector<Candidate>& others) {
+    for (const Candidate& o : others) {
+      const Iso3 D = o.P * r.P.inverse();
+      if (D.translation().norm() < s.distinct_finalist_m &&
+          Eigen::AngleAxisd(D.linear()).angle() < deg2rad(s.distinct_finalist_deg))
+        return false;
     }
-    if (!dup) chosen.push_back(&r);
+    return true;
+  };
+  std::vector<Candidate> coarse, refined;
+  const size_t batch = static_cast<size_t>(std::max(1, s.search.refined_hypotheses));
+  for (size_t first = 0; first < hyps.size(); first += batch) {
+    const size_t n = std::min(batch, hyps.size() - first);
+    std::vector<Candidate> looked(n);
+    parallel_for(n, s.threads, [&](size_t i) {
+      const Hypothesis& h = hyps[first + i];
+      const Iso3 P0 = planar_pose(h.x, h.y, 0.0, h.yaw).inverse();
+      const IcpResult r = planar_icp(thinned(points_near_pose(scene.icp_points, model, P0, s.icp),
+                                             static_cast<size_t>(s.icp.coarse_points)),
+                                     scene, model, P0, s.icp.coarse_iterations, false, s.icp);
+      looked[i] = {r.P, r, score_pose(scene, footprint, model, r.P, s.score)};
+    });
+    // The best few distinct of this batch (and distinct from the finalists of earlier ones).
+    std::sort(looked.begin(), looked.end(), better);
+    std::vector<Candidate> chosen;
+    for (const Candidate& r : looked)
+      if (static_cast<int>(chosen.size()) < s.finalists && distinct_from(r, chosen) &&
+          distinct_from(r, refined))
+        chosen.push_back(r);
+    coarse.insert(coarse.end(), looked.begin(), looked.end());
+    // With rays, the finalists are refined by casting them; without, the surface fit (4c) refines them.
+    std::vector<Candidate> fine(chosen.size());
+    parallel_for(chosen.size(), s.threads, [&](size_t i) {
+      if (scene.ray_points.empty()) {
+        fine[i] = chosen[i];
+        return;
+      }
+      const Iso3& P = chosen[i].P;
+      const std::vector<ScanPoint> near =
+          thinned(rays_near_pose(scene, scan_base, viewpoints_base, model, P, s.icp.rays),
+                  static_cast<size_t>(s.icp.fine_points));
+      const IcpResult f = planar_icp(near, scene, model, P, s.icp.fine_iterations, true, s.icp);
+      fine[i] = {f.P, f, score_pose(scene, footprint, model, f.P, s.score)};
+      look_with_rays(fine[i]);
+    });
+    refined.insert(refined.end(), fine.begin(), fine.end());
+    if (std::any_of(refined.begin(), refined.end(), [](const Candidate& c) { return c.score.allowed(); }))
+      break;
   }
-  // With rays, the finalists are refined by casting them; without, the surface fit (4c) refines them.
-  std::vector<Candidate> refined(chosen.size());
-  parallel_for(chosen.size(), s.threads, [&](size_t i) {
-    if (scene.ray_points.empty()) {
-      refined[i] = *chosen[i];
-      return;
-    }
-    const Iso3& P = chosen[i]->P;
-    const std::vector<ScanPoint> near =
-        thinned(rays_near_pose(scene, scan_base, viewpoints_base, model, P, s.icp.rays),
-                static_cast<size_t>(s.icp.fine_points));
-    const IcpResult f = planar_icp(near, scene, model, P, s.icp.fine_iterations, true, s.icp);
-    refined[i] = {f.P, f, score_pose(scene, footprint, model, f.P, s.score)};
-  });
   std::sort(refined.begin(), refined.end(), better);
   stage("refine");
   if (refined.empty()) return finish("no pose survived the refinement");
@@ -165,9 +190,13 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
       if (model.visible[i]) seams.push_back(model.pts[i]);
   std::vector<const Candidate*> candidates;
   for (const Candidate& r : refined) candidates.push_back(&r);
-  for (const Candidate& r : coarse) candidates.push_back(&r);
-  const std::vector<const Candidate*> rivals =
-      distinct_rivals(best, candidates, model, seam_points, lift, s.score.max_free_space, s.verdict);
+  for (Candidate& r : coarse) {
+    // With rays, a coarse rival that scores nearly as well must leave the rays room as the best does.
+    if (!scene.ray_points.empty() && r.score.support() >= s.verdict.ambiguity_ratio * best.score.support())
+      look_with_rays(r);
+    candidates.push_back(&r);
+  }
+  const std::vector<const Candidate*> rivals = distinct_rivals(best, candidates, model, s.verdict);
 
   // 4c. Without viewpoints: the exact surface decides the wall side, and between the best pose and the
   // rivals the support cannot rule out.
@@ -192,7 +221,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
     out.wall_side_bias_m = wall_side_bias_m(model.thin_wall_m, out.wall_sigma_m);
   } else {
     uncertainty = pose_uncertainty(best.icp.terms, s.uncertainty);
-    out.ambiguity = ambiguity(best, rivals, model, seam_points, lift, s.score.max_free_space, s.verdict);
+    out.ambiguity = ambiguity(best, rivals, model, s.verdict);
   }
   out.covariance = uncertainty.covariance;
   out.yaw_bound_rad = yaw_bound_rad(uncertainty, s.uncertainty);
@@ -215,8 +244,8 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   const PartExtent extent = scan_beyond_model(scene, model, best.P, s.extent);
   out.beyond_share = extent.share();
   out.beyond_extent_m = extent.extent_m;
-  out.see_through_share =
-      rays_through_model(scene, scan_base, viewpoints_base, model, best.P, s.see_through).share();
+  out.see_through_share = best.score.see_through;
+  out.reached_coverage = best.score.reached_coverage;
   out.beyond_at_part = lift.inverse() * extent.centre;
   stage("verdict");
   VerdictInput verdict;
@@ -237,6 +266,8 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   verdict.max_free_space = s.score.max_free_space;
   verdict.beyond_extent_m = out.beyond_extent_m;
   verdict.see_through_share = out.see_through_share;
+  verdict.max_see_through_share = s.score.max_see_through_share;
+  verdict.reached_coverage = out.reached_coverage;
   verdict.beyond_at_part = out.beyond_at_part;
   const std::string reason = verdict_reason(verdict, s.verdict);
   out.found = reason.empty();

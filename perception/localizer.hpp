@@ -85,6 +85,9 @@ struct PoseEstimate {
   /// With viewpoints: the share of the rays crossing the model's box that went through the model (the point
   /// seen well behind the model's surface on its ray).
   double see_through_share = 0.0;
+  /// With viewpoints: the share of the model's samples the sweep's rays reached that the scan confirms (what
+  /// one short pass could have seen of the part; -1 when the rays reached none).
+  double reached_coverage = -1.0;
   double beyond_share = 0.0;
   double beyond_extent_m = 0.0;        ///< the longest stretch of them [m] ...
   Vec3 beyond_at_part = Vec3::Zero();  ///< ... and its centre

@@ -35,20 +35,10 @@ Score score_pose(const ScenePoints& c, const Grid2& footprint, PartModel& m, con
   }
   out.rmse = out.inliers ? std::sqrt(sum2 / out.inliers) : 1.0;
   out.wall_residual = median(wall);
-  // Coverage: visible samples facing up or sideways, high enough to be told from the table, with a scan
-  // point near.
-  const Iso3 T = P.inverse();
-  const double reach = std::max(s.min_coverage_reach_m, s.coverage_sigmas * lim.noise_m);
-  int seen = 0, total = 0;
-  double d2 = 0.0;
-  for (size_t k = 0; k < m.pts.size(); k += static_cast<size_t>(s.coverage_stride)) {
-    if (!m.visible[k] || m.nrm[k].z() < s.coverage_min_normal_z || m.pts[k].z() < lim.height_cut_m) continue;
-    ++total;
-    if (c.tree.nearest(T * m.pts[k], d2) >= 0 && d2 < reach * reach) ++seen;
-  }
-  out.coverage = total ? static_cast<double>(seen) / total : 0.0;
+  out.coverage = coverage(c, m, P, {}, s);
   // Free space: the table seen where the part would rest on it, clearly below the part's lowest surface
   // there (cells averaged, so that single noisy points do not count).
+  const Iso3 T = P.inverse();
   int cells = 0, through = 0;
   for (size_t i = 0; i < footprint.on.size(); ++i) {
     if (!footprint.on[i]) continue;
@@ -62,11 +52,29 @@ Score score_pose(const ScenePoints& c, const Grid2& footprint, PartModel& m, con
   }
   out.free_space = cells ? static_cast<double>(through) / cells : 0.0;
   out.max_free = s.max_free_space;
+  out.max_see_through = s.max_see_through_share;
   return out;
 }
 
-bool better_score(const Score& a, const Score& b, const PoseScoreSetting& s) {
-  const bool fa = a.free_space <= s.max_free_space, fb = b.free_space <= s.max_free_space;
+double coverage(const ScenePoints& c, const PartModel& m, const Iso3& P, const std::vector<uint8_t>& among,
+                const PoseScoreSetting& s) {
+  // Visible samples facing up or sideways, high enough to be told from the table, with a scan point near.
+  const Iso3 T = P.inverse();
+  const double reach = std::max(s.min_coverage_reach_m, s.coverage_sigmas * c.limits.noise_m);
+  int seen = 0, total = 0;
+  double d2 = 0.0;
+  for (size_t k = 0; k < m.pts.size(); k += static_cast<size_t>(s.coverage_stride)) {
+    if (!m.visible[k] || m.nrm[k].z() < s.coverage_min_normal_z || m.pts[k].z() < c.limits.height_cut_m)
+      continue;
+    if (!among.empty() && !among[k]) continue;
+    ++total;
+    if (c.tree.nearest(T * m.pts[k], d2) >= 0 && d2 < reach * reach) ++seen;
+  }
+  return total ? static_cast<double>(seen) / total : 0.0;
+}
+
+bool better_score(const Score& a, const Score& b) {
+  const bool fa = a.allowed(), fb = b.allowed();
   if (fa != fb) return fa;
   return a.support() > b.support();
 }

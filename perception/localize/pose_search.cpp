@@ -137,8 +137,7 @@ PoseSearchResult search_poses(const ScenePoints& scene, PartModel& model, const 
   }
   std::stable_sort(quick.begin(), quick.end(),
                    [](const auto& a, const auto& b) { return a.first > b.first; });
-  for (size_t i = 0; i < quick.size() && static_cast<int>(out.hypotheses.size()) < s.refined_hypotheses; ++i)
-    out.hypotheses.push_back(hyps[quick[i].second]);
+  for (const auto& [near, i] : quick) out.hypotheses.push_back(hyps[i]);
   return out;
 }
 

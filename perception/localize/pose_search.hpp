@@ -19,12 +19,14 @@ struct PoseSearchSetting {
   double vote_xy_m = 0.004;       ///< Hough bin size in x and y [m]
   double vote_yaw_deg = 2.0;      ///< Hough bin size in yaw [deg]
   int ranked_bins = 400;          ///< the best raw bins looked at for peaks
-  int hypotheses = 12;            ///< Hough peaks looked at
+  int hypotheses = 36;            ///< Hough peaks looked at
   double distinct_xy_m = 0.01;    ///< peaks closer than this in x, y ... [m]
   double distinct_yaw_deg = 6.0;  ///< ... and in yaw are one peak [deg]
   int quick_look_points = 800;    ///< points of the quick look
   double quick_look_m = 0.006;    ///< a point within this of a model sample counts in the quick look [m]
-  int refined_hypotheses = 5;     ///< of the peaks, the most promising handed on to refinement
+  /// The peaks are refined in batches of this many, most promising first; the next batch only when no pose
+  /// so far is allowed by the scan (the localizer's recipe)
+  int refined_hypotheses = 5;
 };
 
 /// A pose of the model on the table: T_table_part = planar_pose(x, y, 0, yaw).
@@ -34,7 +36,7 @@ struct Hypothesis {
 };
 
 struct PoseSearchResult {
-  std::vector<Hypothesis> hypotheses;  ///< best first
+  std::vector<Hypothesis> hypotheses;  ///< the distinct peaks, most promising first
   std::string reason;                  ///< why there are none
 };
 

@@ -34,6 +34,10 @@ SeeThrough rays_through_model(const ScenePoints& scene, const std::vector<Vec3>&
   const Iso3 T = P * scene.T_table_base;  // base frame -> part frame
   const Vec3 lo = model.lo - Vec3::Constant(s.box_margin_m), hi = model.hi + Vec3::Constant(s.box_margin_m);
   const double behind = std::max(s.min_behind_m, s.behind_sigmas * scene.limits.noise_m);
+  const double short_of = std::max(s.reach_min_m, s.reach_sigmas * scene.limits.noise_m);
+  out.reached.assign(model.pts.size(), 0);
+  std::vector<uint32_t> idx;
+  std::vector<double> d2;
   std::vector<uint32_t> crossing;
   for (uint32_t i : scene.ray_points) {
     const Vec3 q = T * scan_base[i], o = T * viewpoints_base[i];
@@ -46,7 +50,16 @@ SeeThrough rays_through_model(const ScenePoints& scene, const std::vector<Vec3>&
     const double range = (q - o).norm();
     if (range <= behind) continue;
     ++out.rays;
-    if (std::isfinite(model.rays->hit(o, (q - o) / range, 0.0, range - behind))) ++out.through;
+    const Vec3 d = (q - o) / range;
+    const double t = model.rays->hit(o, d, 0.0, range + short_of);
+    if (!std::isfinite(t)) continue;  // the ray misses the model, or stopped short of it
+    if (t < range - behind) ++out.through;
+    // It reached the model's surface, whether its point lies there or behind.
+    if (model.tree.knn(o + t * d, static_cast<size_t>(s.reach_neighbours), idx, d2) == 0) continue;
+    // Samples of the face the ray met, not of the wall's other face a few millimetres behind it.
+    for (size_t j = 0; j < idx.size(); ++j)
+      if (d2[j] <= s.reach_radius_m * s.reach_radius_m && model.nrm[idx[j]].dot(d) < 0.0)
+        out.reached[idx[j]] = 1;
   }
   return out;
 }

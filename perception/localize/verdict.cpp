@@ -38,18 +38,18 @@ bool same_seams(const std::vector<Vec3>& seam, const Iso3& D, const VerdictSetti
 
 std::vector<const Candidate*> distinct_rivals(const Candidate& best,
                                               const std::vector<const Candidate*>& rivals, PartModel& model,
-                                              const std::vector<Vec3>& seam_points, const Iso3& lift,
-                                              double max_free_space, const VerdictSetting& s) {
+                                              const VerdictSetting& s) {
   std::vector<const Candidate*> out;
   for (const Candidate* r : rivals) {
-    if (r == &best || r->score.free_space > max_free_space) continue;
+    if (r == &best || !r->score.allowed()) continue;
     const Iso3 D = best.P * r->P.inverse();  // part frame to part frame
     // The same pose found twice, or a shallower minimum next to it: not a rival.
     if (D.translation().norm() < s.same_pose_m &&
         Eigen::AngleAxisd(D.linear()).angle() < deg2rad(s.same_pose_deg))
       continue;
+    // A pose the part's symmetry maps onto this one is the same. One that only puts the seams in the same
+    // places is not: the part's body (what the torch must clear) stands elsewhere.
     if (self_similar(model, D, s)) continue;
-    if (same_seams(seam_points, lift.inverse() * D * lift, s)) continue;
     out.push_back(r);
   }
   return out;
@@ -67,11 +67,20 @@ bool seams_turn_onto_themselves(const std::vector<Vec3>& seams, const VerdictSet
 }
 
 double ambiguity(const Candidate& best, const std::vector<const Candidate*>& rivals, PartModel& model,
-                 const std::vector<Vec3>& seam_points, const Iso3& lift, double max_free_space,
                  const VerdictSetting& s) {
   double out = 0.0;
-  for (const Candidate* r : distinct_rivals(best, rivals, model, seam_points, lift, max_free_space, s))
+  for (const Candidate* r : distinct_rivals(best, rivals, model, s)) {
+    // With rays, a rival through which decisively more rays went than through the best explains the scan
+    // worse, whatever its support: a ray seen well behind a surface is strong evidence against that surface.
+    if (r->rays_looked && best.rays_looked) {
+      const int excess = r->score.through_count - best.score.through_count;
+      if (excess >= s.min_rays_decisive &&
+          excess > s.rays_decisive_sigmas *
+                       std::sqrt(static_cast<double>(r->score.through_count + best.score.through_count)))
+        continue;
+    }
     out = std::max(out, r->score.support() / std::max(1e-9, best.score.support()));
+  }
   return out;
 }
 
@@ -85,14 +94,27 @@ std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
           : "somewhere on the part (no seams given: with the part spec the bound is taken at its seams)";
   char buf[600];
   if (best.free_space > in.max_free_space) return "the table is seen where the best match would stand";
-  if (in.rays && in.see_through_share > s.max_see_through_share) {
+  if (in.rays && in.see_through_share > in.max_see_through_share) {
     std::snprintf(buf, sizeof buf,
                   "the LiDAR saw through the best match: %.0f %% of the rays crossing it reach points behind "
                   "its surface",
                   100 * in.see_through_share);
     return buf;
   }
-  if (best.coverage < s.min_coverage) return "the best match covers too little of the model";
+  if (in.rays && in.reached_coverage >= 0.0) {
+    // What the sweep's rays reached of the model is what it could have seen.
+    if (in.reached_coverage < s.min_reached_coverage || best.coverage < s.min_coverage_with_rays) {
+      std::snprintf(
+          buf, sizeof buf,
+          "the best match covers too little of the model: %.0f %% of what the LiDAR's rays reached of it "
+          "(%.0f %% needed), %.0f %% of all of it (%.0f %% needed)",
+          100 * in.reached_coverage, 100 * s.min_reached_coverage, 100 * best.coverage,
+          100 * s.min_coverage_with_rays);
+      return buf;
+    }
+  } else if (best.coverage < s.min_coverage) {
+    return "the best match covers too little of the model";
+  }
   if (fitness < s.min_fitness) return "the part fits the scan poorly";
   if (in.beyond_extent_m > s.max_beyond_extent_m) {
     const Vec3& c = in.beyond_at_part;

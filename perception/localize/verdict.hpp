@@ -13,11 +13,15 @@
 namespace weldtwin {
 
 struct VerdictSetting {
-  double min_coverage = 0.45;        ///< share of the model's visible samples with scan points nearby
-  double min_fitness = 0.55;         ///< share of the scan points in the model's region that it explains
-  double max_wall_residual = 0.58;   ///< median |residual| on the walls, in table noise sigmas (a different
-                                     ///< shape fits the walls worse than the noise explains)
-  double ambiguity_ratio = 0.85;     ///< a distinct pose scoring this close to the best is ambiguous
+  double min_coverage = 0.45;       ///< share of the model's visible samples with scan points nearby
+  double min_fitness = 0.55;        ///< share of the scan points in the model's region that it explains
+  double max_wall_residual = 0.58;  ///< median |residual| on the walls, in table noise sigmas (a different
+                                    ///< shape fits the walls worse than the noise explains)
+  double ambiguity_ratio = 0.85;    ///< a distinct pose scoring this close to the best is ambiguous ...
+  /// ... unless, with rays, decisively more of them went through it than through the best: by this many
+  /// standard deviations of the two counts (Poisson) ...
+  double rays_decisive_sigmas = 5.0;
+  int min_rays_decisive = 20;        ///< ... and by at least this many rays
   double same_pose_m = 0.008;        ///< poses closer than this ... [m]
   double same_pose_deg = 5.0;        ///< ... and this are one minimum, not rivals [deg]
   int symmetry_stride = 7;           ///< every this many model samples test a symmetry
@@ -31,9 +35,11 @@ struct VerdictSetting {
   /// The scan may go on past the model's edges along at most this much (a clamp's pad and arm over the
   /// part's edge make 20-45 mm; a part larger than its model, a whole edge) [m]
   double max_beyond_extent_m = 0.07;
-  /// With rays: at most this share of the rays crossing the model may go through it (right poses: 0-3 % on
-  /// full sweeps, up to 9 % on one pass, from rays that graze its edges; another part: 19-27 %)
-  double max_see_through_share = 0.15;
+  /// With rays, coverage is judged against what the sweep's rays reached of the model (one short pass reaches
+  /// a part of it): at least this share of the reached samples seen ...
+  double min_reached_coverage = 0.7;
+  /// ... and at least this share of the whole visible model [share]
+  double min_coverage_with_rays = 0.2;
 };
 
 /// A refined pose and its figures.
@@ -41,20 +47,18 @@ struct Candidate {
   Iso3 P = Iso3::Identity();  ///< table frame -> part frame
   IcpResult icp;
   Score score;
+  bool rays_looked = false;  ///< score.see_through and score.reached_coverage are the rays' (else unknown)
 };
 
-/// The rivals that weld elsewhere: not `best` itself, allowed by the free space, not the same pose found
-/// again (or a shallower minimum next to it), not mapped onto it by the part's symmetry or its seams.
-/// `lift` maps the mesh frame into the resting frame; `seam_points` are in the mesh frame.
+/// The rivals that put the part elsewhere: not `best` itself, allowed by the scan (Score::allowed), not the
+/// same pose found again (or a shallower minimum next to it), not mapped onto it by the part's symmetry. A
+/// pose that only maps the seams onto themselves is a rival: the part's body stands elsewhere.
 std::vector<const Candidate*> distinct_rivals(const Candidate& best,
                                               const std::vector<const Candidate*>& rivals, PartModel& model,
-                                              const std::vector<Vec3>& seam_points, const Iso3& lift,
-                                              double max_free_space, const VerdictSetting& setting = {});
+                                              const VerdictSetting& setting = {});
 
-/// The best distinct rival's support over the best's (0: none). `lift` maps the mesh frame into the resting
-/// frame; `seam_points` are in the mesh frame.
+/// The best distinct rival's support over the best's (0: none).
 double ambiguity(const Candidate& best, const std::vector<const Candidate*>& rivals, PartModel& model,
-                 const std::vector<Vec3>& seam_points, const Iso3& lift, double max_free_space,
                  const VerdictSetting& setting = {});
 
 /// Whether turning `seam_points` about the vertical through their centroid maps them onto themselves (a
@@ -79,6 +83,8 @@ struct VerdictInput {
   bool seams_given = true;        ///< false: the bound is taken over the part's whole visible surface
   double max_free_space = 0.02;
   double see_through_share = 0.0;  ///< with rays: the share of those crossing the model that went through it
+  double max_see_through_share = 0.15;
+  double reached_coverage = -1.0;  ///< with rays: the coverage of the samples they reached (-1: none)
   double beyond_extent_m = 0.0;    ///< the longest stretch of the model's faces continued past its edges with
                                    ///< the scan on them [m] ...
   Vec3 beyond_at_part = Vec3::Zero();  ///< ... and its centre (part frame) [m]

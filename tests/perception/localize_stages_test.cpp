@@ -280,13 +280,87 @@ TEST(LocalizeStages, RaysGoThroughAModelPutWhereThePartIsNot) {
   EXPECT_LT(right.share(), 0.05);
   for (const Iso3& D : {planar_pose(0.03, 0.0, 0.0, 0.0), planar_pose(0.0, 0.03, 0.0, 0.0)}) {
     const SeeThrough wrong = rays_through_model(scene, cloud, vps, model, D * P0);
-    EXPECT_GT(wrong.share(), VerdictSetting().max_see_through_share) << D.matrix();
+    EXPECT_GT(wrong.share(), PoseScoreSetting().max_see_through_share) << D.matrix();
   }
   VerdictInput in;
   in.rays = true;
   in.score.coverage = 1.0, in.score.inliers = in.score.region = 100;
   in.see_through_share = 0.3;
   EXPECT_NE(verdict_reason(in).find("saw through"), std::string::npos) << verdict_reason(in);
+}
+
+TEST(LocalizeStages, TheRaysReachOnlyTheSideOfThePartTheLiDARFaces) {
+  // Seen from the -y side only: the samples on faces turned towards the LiDAR are reached, those turned away
+  // never are; of what the rays reached, nearly all is seen at the true pose (what one short pass is judged
+  // against), and much less of it at a pose moved off the part.
+  const Scene sc = tube_scene(0.0015, 7);
+  std::vector<Vec3> vps;
+  const std::vector<Vec3> cloud = one_sided_scan(sc.mesh, sc.truth, -0.35, 0.0015, 7, &vps);
+  PartModel model;
+  build_part_model(sc.mesh, 0.0, PartModelSetting(), 0, model);
+  const TablePlane table = find_table_plane(cloud);
+  ASSERT_TRUE(table.found);
+  NoiseLimits lim;
+  lim.noise_m = table.noise_m;
+  lim.height_cut_m = std::max(0.005, 3.0 * table.noise_m);
+  const ScenePoints scene = scene_points(cloud, vps, table.plane, lim, model.height, 1.2);
+  const Iso3 P0 = (scene.T_table_base * sc.truth).inverse();
+  const SeeThrough rays = rays_through_model(scene, cloud, vps, model, P0);
+  ASSERT_EQ(rays.reached.size(), model.pts.size());
+  // The LiDAR's side in the part frame: the part is turned 20 deg, the sensors lie towards base -y.
+  const Vec3 towards = P0.linear() * Vec3(0, -1, 0);
+  int facing = 0, facing_reached = 0, away = 0, away_reached = 0;
+  for (size_t k = 0; k < model.pts.size(); ++k) {
+    if (!model.visible[k] || std::abs(model.nrm[k].z()) > 0.3 || model.pts[k].z() < 0.012) continue;
+    const double c = model.nrm[k].dot(towards);
+    if (c > 0.8) ++facing, facing_reached += rays.reached[k];
+    if (c < -0.8) ++away, away_reached += rays.reached[k];
+  }
+  ASSERT_GT(facing, 100);
+  ASSERT_GT(away, 100);
+  EXPECT_GT(facing_reached, facing / 2);
+  EXPECT_LT(away_reached, away / 20);
+  EXPECT_GT(coverage(scene, model, P0, rays.reached), VerdictSetting().min_reached_coverage);
+  // Moved 60 mm along the plate, the model stands half where the LiDAR saw the table: what the rays reach of
+  // it is not seen there.
+  const Iso3 moved = planar_pose(0.06, 0.0, 0.0, 0.0) * P0;
+  const SeeThrough off = rays_through_model(scene, cloud, vps, model, moved);
+  EXPECT_LT(coverage(scene, model, moved, off.reached), VerdictSetting().min_reached_coverage);
+}
+
+TEST(LocalizeStages, ARivalThroughWhichDecisivelyMoreRaysWentIsNotAmbiguous) {
+  PartSpec part = PartSpec::load(test::repo("scenes/parts/tube_on_plate.yaml"));
+  PartModel model;
+  build_part_model(load_mesh(part.mesh_path), 0.0, PartModelSetting(), 0, model);
+  Candidate best, rival;
+  best.score.inliers = rival.score.inliers = 1000;
+  best.score.coverage = rival.score.coverage = 0.5;
+  best.rays_looked = rival.rays_looked = true;
+  rival.P = planar_pose(0.003, 0.002, 0.0, deg2rad(7.0));  // no symmetry of the part maps it onto the best
+  best.score.through_count = 60;
+  rival.score.through_count = 70;  // as many rays through it, within the counts' spread: ambiguous
+  EXPECT_GT(ambiguity(best, {&best, &rival}, model), VerdictSetting().ambiguity_ratio);
+  rival.score.through_count = 300;  // 240 more: far beyond 5 sigma of the counts
+  EXPECT_EQ(ambiguity(best, {&best, &rival}, model), 0.0);
+  rival.rays_looked = false;  // unknown: the support decides
+  EXPECT_GT(ambiguity(best, {&best, &rival}, model), VerdictSetting().ambiguity_ratio);
+}
+
+TEST(LocalizeStages, APoseThatOnlyPutsTheSeamsInPlaceIsARival) {
+  // The paper's tee turned half round about its stem: the four seams round the stem's foot map onto
+  // themselves, but the lying tube's long arm points the other way, where the torch must clear it. The tube
+  // on its plate turned half round maps onto itself: the same pose.
+  PartModel tee, tube;
+  build_part_model(load_mesh(PartSpec::load(test::repo("scenes/parts/paper_tee.yaml")).mesh_path), 0.0,
+                   PartModelSetting(), 0, tee);
+  build_part_model(load_mesh(PartSpec::load(test::repo("scenes/parts/tube_on_plate.yaml")).mesh_path), 0.0,
+                   PartModelSetting(), 0, tube);
+  Candidate best, turned;
+  best.score.inliers = turned.score.inliers = 1000;
+  best.score.coverage = turned.score.coverage = 0.5;
+  turned.P = planar_pose(0.0, 0.0, 0.0, kPi);
+  EXPECT_EQ(distinct_rivals(best, {&best, &turned}, tee).size(), 1u);
+  EXPECT_EQ(distinct_rivals(best, {&best, &turned}, tube).size(), 0u);
 }
 
 }  // namespace
