@@ -25,6 +25,7 @@
 #include "perception/paper_localizer.hpp"
 #include "perception/pose_error.hpp"
 #include "perception/scan_assembly.hpp"
+#include "sim/part_deviation.hpp"
 #include "sim/sweep_sim.hpp"
 
 using namespace weldtwin;
@@ -126,44 +127,6 @@ Iso3 mount_error(uint64_t seed, double sigma_m, double sigma_rad) {
   return make_transform(t, rpy_to_matrix(r.x(), r.y(), r.z()));
 }
 
-/// `mesh` scaled along x, y and z about its box's centre so that each extent changes by a seeded draw
-/// uniform in +-deviation_m (its lowest face stays at its height), written as binary STL.
-void write_deviated_mesh(const Mesh& mesh, double deviation_m, uint64_t seed, const std::string& path) {
-  Vec3 lo = Vec3::Constant(1e9), hi = Vec3::Constant(-1e9);
-  for (const Vec3& v : mesh.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
-  std::mt19937_64 rng(seed * 0x2545F4914F6CDD1DULL + 29);
-  std::uniform_real_distribution<double> u(-deviation_m, deviation_m);
-  const Vec3 ext = hi - lo, c = 0.5 * (lo + hi);
-  Vec3 scale;
-  for (int k = 0; k < 3; ++k) scale[k] = (ext[k] + u(rng)) / ext[k];
-  std::ofstream out(path, std::ios::binary);
-  char header[80] = "weldtwin survey: a part off its CAD";
-  out.write(header, 80);
-  const uint32_t n = static_cast<uint32_t>(mesh.faces.size());
-  out.write(reinterpret_cast<const char*>(&n), 4);
-  auto moved = [&](const Vec3& v) {
-    Vec3 p = c + (v - c).cwiseProduct(scale);
-    p.z() = lo.z() + (v.z() - lo.z()) * scale.z();
-    return p;
-  };
-  for (const auto& f : mesh.faces) {
-    const Vec3 a = moved(mesh.vertices[static_cast<size_t>(f[0])]),
-               b = moved(mesh.vertices[static_cast<size_t>(f[1])]),
-               cc = moved(mesh.vertices[static_cast<size_t>(f[2])]);
-    const Vec3 nn = (b - a).cross(cc - a).normalized();
-    float buf[12];
-    for (int k = 0; k < 3; ++k) {
-      buf[k] = static_cast<float>(nn[k]);
-      buf[3 + k] = static_cast<float>(a[k]);
-      buf[6 + k] = static_cast<float>(b[k]);
-      buf[9 + k] = static_cast<float>(cc[k]);
-    }
-    out.write(reinterpret_cast<const char*>(buf), sizeof buf);
-    const uint16_t attr = 0;
-    out.write(reinterpret_cast<const char*>(&attr), 2);
-  }
-}
-
 bool success(const PoseEstimate& p, const PoseError& e) {
   return p.found && e.seam_max_m <= 1e-3 && e.rotation_rad <= deg2rad(0.5);
 }
@@ -218,6 +181,10 @@ int main(int argc, char** argv) {
   app.add_option("--mount-error-deg", mount_error_deg, "... and per rotation axis [deg]");
   app.add_option("--part-deviation-mm", part_deviation_mm,
                  "the twin's part scaled by up to +-this in each dimension (its CAD unchanged) [mm]");
+  int tack_welds = 0;
+  double bend_deg = 0.0;
+  app.add_option("--tack-welds", tack_welds, "the twin's part with this many tack welds on its seams (6 mm)");
+  app.add_option("--bend-deg", bend_deg, "the twin's part bent along its length by up to +-this [deg]");
   app.add_flag("--no-viewpoints", no_viewpoints,
                "localize the clouds without their viewpoints, as other tools' clouds");
   app.add_option("cells", cells, "cell YAML files");
@@ -290,6 +257,12 @@ int main(int argc, char** argv) {
     if (mount_error_mm > 0 || mount_error_deg > 0)
       condition_key += "-mount=" + std::to_string(mount_error_mm) + "," + std::to_string(mount_error_deg);
     if (part_deviation_mm > 0) condition_key += "-deviation=" + std::to_string(part_deviation_mm);
+    if (tack_welds > 0) condition_key += "-tacks=" + std::to_string(tack_welds);
+    if (bend_deg > 0) condition_key += "-bend=" + std::to_string(bend_deg);
+    PartDeviationSetting deviation;
+    deviation.dimension_m = 1e-3 * part_deviation_mm;
+    deviation.tack_welds = tack_welds;
+    deviation.bend_deg = bend_deg;
     const RobotModel robot = load_cell_robot(parts.front().spec);
     std::vector<Trial> trials(parts.size() * static_cast<size_t>(layouts));
     std::vector<Iso3> scan_truth_of(trials.size(), Iso3::Identity());
@@ -308,15 +281,16 @@ int main(int argc, char** argv) {
                                            (noise_free ? "-exact" : "") + lidar_key + condition_key + ".scan";
         if (file.empty() || !read_cache(file, scan)) {
           const CellLayout layout = make_layout(d.spec, d.part, t.seed);
-          // The real part may differ from its CAD: the twin's part scaled along its axes by up to
-          // +-part_deviation_mm in each dimension (the seams and the model stay the CAD's).
+          // The real part may differ from its CAD: the twin's part off in each extent, with tack welds, bent
+          // (the seams and the model stay the CAD's).
           PartSpec twin_part = d.part;
           std::string deviated_mesh;
-          if (part_deviation_mm > 0) {
+          if (deviation.any()) {
             deviated_mesh = (std::filesystem::temp_directory_path() /
                              ("weldtwin_survey_" + d.part.name + "_" + std::to_string(t.seed) + ".stl"))
                                 .string();
-            write_deviated_mesh(d.mesh, 1e-3 * part_deviation_mm, t.seed, deviated_mesh);
+            write_stl(deviate_part(d.mesh, d.seam_points, deviation, t.seed).mesh, deviated_mesh,
+                      "weldtwin survey: a part off its CAD");
             twin_part.mesh_path = deviated_mesh;
           }
           // An uncalibrated LiDAR mount: the twin (its MuJoCo model and its sweep) holds the LiDAR off by a

@@ -135,6 +135,32 @@ Mesh read_with_assimp(const std::string& path, double scale, bool collada = fals
 
 }  // namespace
 
+void write_stl(const Mesh& mesh, const std::string& path, const std::string& header) {
+  std::ofstream out(path, std::ios::binary);
+  if (!out) throw input_error(path, "cannot be written");
+  char head[80] = {};
+  header.copy(head, sizeof head - 1);
+  out.write(head, sizeof head);
+  const uint32_t n = static_cast<uint32_t>(mesh.faces.size());
+  out.write(reinterpret_cast<const char*>(&n), sizeof n);
+  for (const Eigen::Vector3i& f : mesh.faces) {
+    const Vec3 &a = mesh.vertices[static_cast<size_t>(f[0])], &b = mesh.vertices[static_cast<size_t>(f[1])],
+               &c = mesh.vertices[static_cast<size_t>(f[2])];
+    const Vec3 normal = (b - a).cross(c - a).normalized();
+    float record[12];
+    for (int k = 0; k < 3; ++k) {
+      record[k] = static_cast<float>(normal[k]);
+      record[3 + k] = static_cast<float>(a[k]);
+      record[6 + k] = static_cast<float>(b[k]);
+      record[9 + k] = static_cast<float>(c[k]);
+    }
+    out.write(reinterpret_cast<const char*>(record), sizeof record);
+    const uint16_t attribute = 0;
+    out.write(reinterpret_cast<const char*>(&attribute), sizeof attribute);
+  }
+  if (!out) throw input_error(path, "cannot be written");
+}
+
 Mesh load_mesh(const std::string& path, double scale) {
   if (!is_file(path)) throw input_error(path, "no such mesh file");
   std::error_code size_error;

@@ -15,6 +15,10 @@ struct Mesh {
   std::vector<Eigen::Vector3i> faces;
 };
 
+/// Writes `mesh` as binary STL (metres, each face's normal from its winding). Throws InputError naming the
+/// file when it cannot be written.
+void write_stl(const Mesh& mesh, const std::string& path, const std::string& header = "weldtwin");
+
 /// Loads a mesh, scaled by `scale` (1 for metres, 1e-3 for a mesh in millimetres). Throws InputError naming
 /// the file for a missing, empty, malformed or non-finite mesh.
 Mesh load_mesh(const std::string& path, double scale = 1.0);
