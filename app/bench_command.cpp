@@ -41,6 +41,7 @@
 #include "sim/collision_check.hpp"
 #include "sim/replay.hpp"
 #include "sim/sweep_sim.hpp"
+#include "sim/twin_calibration.hpp"
 
 namespace weldtwin {
 namespace {
@@ -227,7 +228,8 @@ std::vector<std::pair<void*, size_t>> cast_shared_rays(std::vector<BenchCell>& c
 
 // One trial, start to end, in this process. Timings go under "seconds" (the only part that differs between
 // runs of the same seed).
-json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d, const BenchCell* calibration) {
+json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d,
+               const CalibrationCell* calibration) {
   json j;
   j["index"] = d.index;
   j["seed"] = cmd.seed;
@@ -266,17 +268,8 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d, const
   // (wrong) mount, and the scan assembled with it; otherwise with the URDF's.
   RobotModel assembly_robot = c.robot;
   if (calibration) {
-    const MujocoWorld cal_world(calibration->cell, calibration->part, real_robot,
-                                make_layout(calibration->cell, calibration->part, {}));
-    LidarSetting cal_lidar;
-    cal_lidar.apply(calibration->cell.lidar_overrides, calibration->cell.source);
-    cal_lidar.seed = d.lidar_seed + 1;
-    SweepOptions cal_options = options;
-    cal_options.fixed_rays = nullptr, cal_options.fixed_ray_count = 0;  // another cell
-    const ScanLog cal_log =
-        simulate_sweep(cal_world, real_robot, calibration->program, cal_lidar, cal_options).log;
-    const MountCalibration cal = calibrate_mount(
-        cal_log, c.robot, MountCalibrationSetting::for_box(calibration->mesh), calibration->cell.source);
+    const MountCalibration cal =
+        calibrate_in_twin(*calibration, real_robot, c.robot, d.lidar_seed + 1, options);
     assembly_robot = c.robot.with_mount_offset(lidar_link, cal.delta);
     j["calibration"] = {
         {"translation_error_mm", rounded(1e3 * (cal.delta.translation() - delta.translation()).norm(), 1e-4)},
@@ -400,7 +393,7 @@ std::string duration_text(double s) {
 
 // A trial, drawn from (seed, index) and run in this process; what it throws is its failure.
 json trial_line(const BenchCommand& cmd, const std::vector<BenchCell>& cells, uint64_t index,
-                const BenchCell* calibration) {
+                const CalibrationCell* calibration) {
   Draw d;
   try {
     draw_trial(cmd, cells, index, d);
@@ -443,7 +436,7 @@ struct Worker {
 };
 
 [[noreturn]] void worker_main(int in, int out, const BenchCommand& cmd, const std::vector<BenchCell>& cells,
-                              const std::vector<uint64_t>& indices, const BenchCell* calibration) {
+                              const std::vector<uint64_t>& indices, const CalibrationCell* calibration) {
   mallopt(M_MMAP_MAX, 0);
   mallopt(M_TRIM_THRESHOLD, std::numeric_limits<int>::max());
   std::string pending;
@@ -488,9 +481,12 @@ int run_bench(const BenchCommand& cmd_in) {
   if (cmd.jobs <= 0) cmd.jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   std::vector<BenchCell> cells;
   for (const std::string& f : cmd.cells) cells.emplace_back(f, cmd.sweep, cmd.robot);
-  std::optional<BenchCell> calibration;
+  std::optional<CalibrationCell> calibration;
   if (cmd.calibrate)
-    calibration.emplace(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/calibration.yaml", "", cmd.robot);
+    calibration.emplace(
+        with_robot(CellSpec::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/calibration.yaml"),
+                   cmd.robot),
+        cells.front().robot);
 
   std::vector<uint64_t> indices;
   for (int i = cmd.shard; i < cmd.trials; i += cmd.shards) indices.push_back(static_cast<uint64_t>(i));

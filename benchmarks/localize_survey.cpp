@@ -14,6 +14,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <random>
 #include <thread>
 
@@ -27,6 +28,7 @@
 #include "perception/scan_assembly.hpp"
 #include "sim/part_deviation.hpp"
 #include "sim/sweep_sim.hpp"
+#include "sim/twin_calibration.hpp"
 
 using namespace weldtwin;
 
@@ -179,6 +181,11 @@ int main(int argc, char** argv) {
       "--mount-error-mm", mount_error_mm,
       "the LiDAR mount off by a seeded draw, sigma per axis [mm] (the scan assembled with the nominal)");
   app.add_option("--mount-error-deg", mount_error_deg, "... and per rotation axis [deg]");
+  bool calibrate = false;
+  app.add_flag(
+      "--calibrate", calibrate,
+      "find the mount first from a sweep of the calibration cell through the same mount (as weldtwin "
+      "calibrate), and assemble each scan with it");
   app.add_option("--part-deviation-mm", part_deviation_mm,
                  "the twin's part scaled by up to +-this in each dimension (its CAD unchanged) [mm]");
   int tack_welds = 0;
@@ -255,7 +262,8 @@ int main(int argc, char** argv) {
     std::string condition_key;
     if (!sweep_file.empty()) condition_key += "-sweep=" + std::filesystem::path(sweep_file).stem().string();
     if (mount_error_mm > 0 || mount_error_deg > 0)
-      condition_key += "-mount=" + std::to_string(mount_error_mm) + "," + std::to_string(mount_error_deg);
+      condition_key += "-mount=" + std::to_string(mount_error_mm) + "," + std::to_string(mount_error_deg) +
+                       (calibrate ? "-calibrated" : "");
     if (part_deviation_mm > 0) condition_key += "-deviation=" + std::to_string(part_deviation_mm);
     if (tack_welds > 0) condition_key += "-tacks=" + std::to_string(tack_welds);
     if (bend_deg > 0) condition_key += "-bend=" + std::to_string(bend_deg);
@@ -264,6 +272,14 @@ int main(int argc, char** argv) {
     deviation.tack_welds = tack_welds;
     deviation.bend_deg = bend_deg;
     const RobotModel robot = load_cell_robot(parts.front().spec);
+    std::optional<CalibrationCell> calibration;
+    // The calibration cell beside the first cell given (scenes/cells/calibration.yaml).
+    if (calibrate)
+      calibration.emplace(
+          CellSpec::load(
+              (std::filesystem::path(parts.front().cell_file).parent_path() / "calibration.yaml").string()),
+          robot);
+    std::vector<double> calibration_error_mm(parts.size() * static_cast<size_t>(layouts), -1.0);
     std::vector<Trial> trials(parts.size() * static_cast<size_t>(layouts));
     std::vector<Iso3> scan_truth_of(trials.size(), Iso3::Identity());
     std::atomic<size_t> next{0}, done{0};
@@ -308,7 +324,14 @@ int main(int argc, char** argv) {
           SweepOptions opt;
           opt.threads = jobs > 1 ? 1 : 0;
           const SweepResult r = simulate_sweep(world, real_robot, program, lidar, opt);
-          const AssembledCloud cloud = assemble_scan(r.log, robot);
+          // Assembled with the URDF's mount, or with the one the calibration cell's sweep found.
+          RobotModel assembly = robot;
+          if (calibration) {
+            const MountCalibration cal = calibrate_in_twin(*calibration, real_robot, robot, t.seed + 1, opt);
+            assembly = robot.with_mount_offset("lidar", cal.delta);
+            calibration_error_mm[i] = 1e3 * (cal.delta.translation() - mount_delta.translation()).norm();
+          }
+          const AssembledCloud cloud = assemble_scan(r.log, assembly);
           scan.points = cloud.points_base;
           scan.viewpoints = cloud.viewpoints_base;
           for (uint32_t s : cloud.sample_index) scan.labels.push_back(static_cast<uint8_t>(r.labels[s]));
@@ -341,6 +364,8 @@ int main(int argc, char** argv) {
         }
         std::lock_guard<std::mutex> lock(io);
         ++done;
+        if (calibration_error_mm[i] >= 0)
+          std::fprintf(stderr, "[calibrated mount %.2f mm off] ", calibration_error_mm[i]);
         std::fprintf(stderr, "[%zu/%zu] %s seed %llu: ours %s %.3f mm %.3f deg %.2f s", done.load(),
                      trials.size(), d.part.name.c_str(), static_cast<unsigned long long>(t.seed),
                      t.ours.found ? "found" : ("refused (" + t.ours.reason + ")").c_str(),
