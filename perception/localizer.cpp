@@ -203,9 +203,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   PoseUncertainty uncertainty;
   out.margin_llr = std::numeric_limits<double>::infinity();
   if (scene.ray_points.empty()) {
-    std::vector<Iso3> starts{best.P};
-    for (const Eigen::Vector2d& d : model.wall_side_shifts)
-      starts.push_back(planar_pose(d.x(), d.y(), 0.0, 0.0) * best.P);
+    std::vector<Iso3> starts{best.P};  // and, from where its fit settles, across the thin walls
     for (const Candidate* r : rivals)
       if (r->score.support() >= s.verdict.rival_support_share * best.score.support()) starts.push_back(r->P);
     const WallSideResult side = decide_wall_side(scene.icp_points, model, starts, seams, noise, s.surface,
@@ -215,6 +213,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
     uncertainty = side.uncertainty;
     out.margin_llr = side.margin_llr;
     out.rival_offset_m = side.rival_offset_m;
+    out.residual_margin_llr = side.residual_margin_llr;
     out.wall_offset_m = side.best.wall_offset_m;
     out.level_offset_m = side.best.level_offset_m;
     out.wall_sigma_m = side.best.wall_sigma_m;

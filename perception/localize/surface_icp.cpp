@@ -107,6 +107,7 @@ SurfaceFit surface_cost(const std::vector<ScanPoint>& pts, const PartModel& m, c
                        s.view_prior_weight > 0 ? &view_nats : nullptr, &s) /
                  (noise * noise) +
              view_nats;
+  out.view_nats = view_nats;
   out.wall_offset_m = median(wall);
   out.level_offset_m = median(level);
   out.wall_sigma_m = kMadToSigma * median(wall_r);
@@ -139,6 +140,7 @@ SurfaceFit surface_icp(const std::vector<ScanPoint>& pts, const PartModel& m, Is
   out.P = orthonormalized(P);
   const SurfaceFit at = surface_cost(pts, m, out.P, noise, s);
   out.cost = at.cost;
+  out.view_nats = at.view_nats;
   out.inliers = at.inliers;
   out.terms = at.terms;
   out.wall_offset_m = at.wall_offset_m;

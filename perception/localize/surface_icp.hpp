@@ -39,6 +39,7 @@ struct SurfaceFit {
   bool converged = false;
   double cost = 0.0;                ///< sum of Tukey's rho over the points, in units of the noise variance,
                                     ///< plus the view prior [nats]
+  double view_nats = 0.0;           ///< the view prior's part of the cost [nats]
   int inliers = 0;                  ///< points with non-zero weight
   std::vector<ResidualTerm> terms;  ///< the residuals at P
   /// How far the scan's surfaces are from the model's, by the distance of the points' neighbourhood

@@ -25,7 +25,8 @@ WallSideResult decide_wall_side(const std::vector<ScanPoint>& icp_points, const 
                                 const SurfaceIcpSetting& surface, const PoseUncertaintySetting& unc,
                                 const WallSideSetting& s, int threads) {
   WallSideResult out;
-  // One set of points for every fit: those near any start, so that the costs compare.
+  // One set of points for every fit: those near any start (or a wall's thickness from it), so that the costs
+  // compare.
   double shift = 0.0;
   for (const Eigen::Vector2d& d : model.wall_side_shifts) shift = std::max(shift, d.norm());
   std::vector<ScanPoint> pts;
@@ -45,14 +46,38 @@ WallSideResult decide_wall_side(const std::vector<ScanPoint>& icp_points, const 
       if (taken[i]) pts.push_back(icp_points[i]);
     pts = thinned(pts, static_cast<size_t>(surface.max_points));
   }
+  if (starts.empty()) return out;
+  // Every start fitted; then, from where the best fit so far settled (not from a start: a coarse pose a
+  // couple of millimetres off would be moved to the wrong places), the part moved across each direction of
+  // its thin walls and fitted again, round after round while that finds a better fit (a pose on the wrong
+  // side of two walls at once comes back in two rounds).
   std::vector<SurfaceFit> fits(starts.size());
   parallel_for(fits.size(), threads,
                [&](size_t i) { fits[i] = surface_icp(pts, model, starts[i], noise, surface); });
+  auto best_of = [&]() {
+    size_t k = 0;
+    for (size_t i = 1; i < fits.size(); ++i)
+      if (fits[i].cost < fits[k].cost) k = i;
+    return k;
+  };
+  size_t k = best_of();
+  for (int round = 0; round < s.max_rounds && !model.wall_side_shifts.empty(); ++round) {
+    std::vector<Iso3> from;
+    for (const Eigen::Vector2d& d : model.wall_side_shifts) {
+      const Iso3 P = planar_pose(d.x(), d.y(), 0.0, 0.0) * fits[k].P;
+      bool tried = false;  // a fit already settled there
+      for (const SurfaceFit& f : fits) tried = tried || seam_offset(P, f.P, seams) <= s.distinct_seam_m;
+      if (!tried) from.push_back(P);
+    }
+    std::vector<SurfaceFit> more(from.size());
+    parallel_for(more.size(), threads,
+                 [&](size_t i) { more[i] = surface_icp(pts, model, from[i], noise, surface); });
+    const double before = fits[k].cost;
+    fits.insert(fits.end(), more.begin(), more.end());
+    k = best_of();
+    if (!(fits[k].cost < before)) break;
+  }
   out.fits = static_cast<int>(fits.size());
-  if (fits.empty()) return out;
-  size_t k = 0;
-  for (size_t i = 1; i < fits.size(); ++i)
-    if (fits[i].cost < fits[k].cost) k = i;
   out.best = fits[k];
   out.uncertainty = pose_uncertainty(out.best.terms, unc);
   // The cost is in units of the table's noise variance; the residuals' own variance and the design effect
@@ -68,6 +93,8 @@ WallSideResult decide_wall_side(const std::vector<ScanPoint>& icp_points, const 
     if (llr < out.margin_llr) {
       out.margin_llr = llr;
       out.rival_offset_m = offset;
+      out.residual_margin_llr =
+          (fits[i].cost - fits[i].view_nats - (out.best.cost - out.best.view_nats)) * scale;
     }
   }
   return out;

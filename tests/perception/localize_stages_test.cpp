@@ -174,6 +174,13 @@ TEST(LocalizeStages, WallSideIsDecidedOnAThinWallSeenFromOneSide) {
     if (offset_m(stuck.P, P0, seams) > 2e-3) {
       EXPECT_GT(side.margin_llr, 15.0) << d.transpose();
     }
+    // Started only from the wrong side, and 2 mm along the wall besides (as a coarse pose may be): the
+    // moves across the walls are made from where the fit settles, so the right side is still among them.
+    const Iso3 off = planar_pose(-2e-3 * d.y() / d.norm(), 2e-3 * d.x() / d.norm(), 0.0, 0.0) * wrong;
+    const WallSideResult alone =
+        decide_wall_side(p.scene.icp_points, p.model, {off}, seams, p.noise, SurfaceIcpSetting(),
+                         PoseUncertaintySetting(), WallSideSetting(), 0);
+    EXPECT_LT(offset_m(alone.best.P, P0, seams), 5e-4) << d.transpose();
   }
   // The whole localizer, from no guess at all.
   const PoseEstimate pose = localize(sc.cloud, sc.mesh, LocalizeSetting(), seams);
