@@ -57,6 +57,7 @@ nlohmann::json pose_to_json(const PoseEstimate& pose) {
   if (!pose.rays_cast) {
     out["margin_llr"] = std::isfinite(pose.margin_llr) ? nlohmann::json(pose.margin_llr) : nlohmann::json();
     out["rival_offset_mm"] = 1e3 * pose.rival_offset_m;
+    if (std::isfinite(pose.margin_llr)) out["residual_margin_llr"] = pose.residual_margin_llr;
     out["wall_offset_mm"] = 1e3 * pose.wall_offset_m;
     out["level_offset_mm"] = 1e3 * pose.level_offset_m;
     out["wall_sigma_mm"] = 1e3 * pose.wall_sigma_m;

@@ -259,6 +259,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   verdict.wall_side_bias_m = out.wall_side_bias_m;
   verdict.wall_sigma_m = out.wall_sigma_m;
   verdict.thin_wall_m = model.thin_wall_m;
+  verdict.noise_m = noise;
   verdict.seams_given = !seam_points.empty();
   verdict.yaw_bound_rad = out.yaw_bound_rad;
   verdict.yaw_matters = !seams_turn_onto_themselves(seam_points, s.verdict);

@@ -21,15 +21,18 @@ struct VerdictSetting {
   /// ... unless, with rays, decisively more of them went through it than through the best: by this many
   /// standard deviations of the two counts (Poisson) ...
   double rays_decisive_sigmas = 5.0;
-  int min_rays_decisive = 20;        ///< ... and by at least this many rays
-  double same_pose_m = 0.008;        ///< poses closer than this ... [m]
-  double same_pose_deg = 5.0;        ///< ... and this are one minimum, not rivals [deg]
-  int symmetry_stride = 7;           ///< every this many model samples test a symmetry
-  double symmetry_m = 0.0015;        ///< the model maps onto itself within this mean distance [m]
-  double same_seam_m = 0.0015;       ///< every seam point maps within this of a seam point [m]
-  double weld_tolerance_m = 0.001;   ///< a pose is accepted when its seam error bound is within this [m]
-  double yaw_tolerance_deg = 0.5;    ///< ... and its yaw bound within this (the torch's angles) [deg]
-  double min_margin_llr = 15.0;      ///< a fit that welds elsewhere must be this much less likely (nats)
+  int min_rays_decisive = 20;       ///< ... and by at least this many rays
+  double same_pose_m = 0.008;       ///< poses closer than this ... [m]
+  double same_pose_deg = 5.0;       ///< ... and this are one minimum, not rivals [deg]
+  int symmetry_stride = 7;          ///< every this many model samples test a symmetry
+  double symmetry_m = 0.0015;       ///< the model maps onto itself within this mean distance [m]
+  double same_seam_m = 0.0015;      ///< every seam point maps within this of a seam point [m]
+  double weld_tolerance_m = 0.001;  ///< a pose is accepted when its seam error bound is within this [m]
+  double yaw_tolerance_deg = 0.5;   ///< ... and its yaw bound within this (the torch's angles) [deg]
+  double min_margin_llr = 15.0;     ///< a fit that welds elsewhere must be this much less likely (nats)
+  /// Without viewpoints, thin walls must be at least this many range noise sigmas thick: thinner, a point's
+  /// side of a wall is a guess and the fit's bound does not hold
+  double min_wall_to_noise = 2.0;
   double rival_support_share = 0.5;  ///< rivals of at least this share of the best's support are refitted
   int surface_stride = 7;            ///< without seams, every this many visible samples stand for them
   /// The scan may go on past the model's edges along at most this much (a clamp's pad and arm over the
@@ -80,6 +83,7 @@ struct VerdictInput {
   double wall_side_bias_m = 0.0;  ///< the part of the bound that allows for points on the wrong face [m]
   double wall_sigma_m = 0.0;      ///< the spread of the scan's points across walls [m]
   double thin_wall_m = 0.0;       ///< the part's thin walls' thickness [m]
+  double noise_m = 0.0;           ///< the range noise sigma, from the table [m]
   bool seams_given = true;        ///< false: the bound is taken over the part's whole visible surface
   double max_free_space = 0.02;
   double see_through_share = 0.0;  ///< with rays: the share of those crossing the model that went through it

@@ -370,5 +370,23 @@ TEST(LocalizeStages, APoseThatOnlyPutsTheSeamsInPlaceIsARival) {
   EXPECT_EQ(distinct_rivals(best, {&best, &turned}, tube).size(), 0u);
 }
 
+TEST(LocalizeStages, WithoutViewpointsWallsThinAgainstTheNoiseAreRefused) {
+  // A fit whose figures would pass: refused without viewpoints when the range noise is more than half the
+  // walls' thickness, kept when it is less, and never refused for it with viewpoints.
+  VerdictInput in;
+  in.score.coverage = 1.0, in.score.inliers = in.score.region = 100;
+  in.margin_llr = 100.0;
+  in.seam_error_bound_m = 0.0005;
+  in.yaw_bound_rad = deg2rad(0.1);
+  in.thin_wall_m = 0.0032;
+  in.noise_m = 0.0023;
+  EXPECT_NE(verdict_reason(in).find("range noise"), std::string::npos) << verdict_reason(in);
+  in.noise_m = 0.0013;
+  EXPECT_EQ(verdict_reason(in), "");
+  in.noise_m = 0.0023;
+  in.rays = true;
+  EXPECT_EQ(verdict_reason(in), "");
+}
+
 }  // namespace
 }  // namespace weldtwin
