@@ -222,6 +222,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
     uncertainty = pose_uncertainty(best.icp.terms, s.uncertainty);
     out.ambiguity = ambiguity(best, rivals, model, s.verdict);
   }
+  stage("fit");
   out.covariance = uncertainty.covariance;
   out.yaw_bound_rad = yaw_bound_rad(uncertainty, s.uncertainty);
   out.seam_error_bound_m = seam_error_bound_m(uncertainty, seams, s.uncertainty) + out.wall_side_bias_m;

@@ -96,7 +96,7 @@ struct PoseEstimate {
   double wall_side_bias_m = 0.0;
   double seconds = 0.0;
   std::vector<std::pair<std::string, double>>
-      stage_seconds;  ///< model, table, objects, search, refine, verdict
+      stage_seconds;  ///< model, table, objects, search, refine, fit (the surface fit, the bounds), verdict
 };
 
 /// A part's mesh made ready for localize(): surface samples, which of them a scanner can see, the mesh for

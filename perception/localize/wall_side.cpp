@@ -47,13 +47,17 @@ WallSideResult decide_wall_side(const std::vector<ScanPoint>& icp_points, const 
     pts = thinned(pts, static_cast<size_t>(surface.max_points));
   }
   if (starts.empty()) return out;
-  // Every start fitted; then, from where the best fit so far settled (not from a start: a coarse pose a
-  // couple of millimetres off would be moved to the wrong places), the part moved across each direction of
-  // its thin walls and fitted again, round after round while that finds a better fit (a pose on the wrong
-  // side of two walls at once comes back in two rounds).
-  std::vector<SurfaceFit> fits(starts.size());
+  // Every start fitted, and the first moved across each direction of the part's thin walls; then, from where
+  // the best fit so far settled (a coarse start a couple of millimetres off may have been moved to the wrong
+  // places), the moves across the walls again, round after round while that finds a better fit (a pose on
+  // the wrong side of two walls at once comes back in two rounds). A move that starts within retry_m of an
+  // earlier start, or where an earlier fit settled, is not made again.
+  std::vector<Iso3> tried = starts;
+  for (const Eigen::Vector2d& d : model.wall_side_shifts)
+    tried.push_back(planar_pose(d.x(), d.y(), 0.0, 0.0) * starts.front());
+  std::vector<SurfaceFit> fits(tried.size());
   parallel_for(fits.size(), threads,
-               [&](size_t i) { fits[i] = surface_icp(pts, model, starts[i], noise, surface); });
+               [&](size_t i) { fits[i] = surface_icp(pts, model, tried[i], noise, surface); });
   auto best_of = [&]() {
     size_t k = 0;
     for (size_t i = 1; i < fits.size(); ++i)
@@ -65,10 +69,12 @@ WallSideResult decide_wall_side(const std::vector<ScanPoint>& icp_points, const 
     std::vector<Iso3> from;
     for (const Eigen::Vector2d& d : model.wall_side_shifts) {
       const Iso3 P = planar_pose(d.x(), d.y(), 0.0, 0.0) * fits[k].P;
-      bool tried = false;  // a fit already settled there
-      for (const SurfaceFit& f : fits) tried = tried || seam_offset(P, f.P, seams) <= s.distinct_seam_m;
-      if (!tried) from.push_back(P);
+      bool again = false;
+      for (const SurfaceFit& f : fits) again = again || seam_offset(P, f.P, seams) <= s.distinct_seam_m;
+      for (const Iso3& T : tried) again = again || seam_offset(P, T, seams) <= s.retry_m;
+      if (!again) from.push_back(P);
     }
+    tried.insert(tried.end(), from.begin(), from.end());
     std::vector<SurfaceFit> more(from.size());
     parallel_for(more.size(), threads,
                  [&](size_t i) { more[i] = surface_icp(pts, model, from[i], noise, surface); });

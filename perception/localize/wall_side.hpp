@@ -18,6 +18,7 @@ namespace weldtwin {
 struct WallSideSetting {
   double distinct_seam_m = 0.0005;  ///< fits whose seams lie this far apart are different welds [m]
   int max_rounds = 3;               ///< rounds of moves across the walls from the best fit so far
+  double retry_m = 0.001;           ///< a move starting this close to an earlier start is not made again [m]
 };
 
 struct WallSideResult {
