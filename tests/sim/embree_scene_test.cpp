@@ -44,7 +44,16 @@ TEST(EmbreeScene, AgreesWithMjRayOn10000RandomRays) {
       const int type = m->geom_type[geom];
       curved += type == mjGEOM_CYLINDER || type == mjGEOM_CAPSULE || type == mjGEOM_SPHERE;
     } else {
-      ++ties;  // two surfaces at the same distance (touching geoms): either answer is right
+      // Two surfaces at the same distance (touching geoms): either answer is right, so long as
+      // MuJoCo, cast at Embree's geom alone, meets it at that same distance.
+      ++ties;
+      const int g = hit.geom;
+      const double t_own =
+          m->geom_type[g] == mjGEOM_MESH
+              ? mj_rayMesh(m, w.data(), g, o.data(), d.data())
+              : mju_rayGeom(w.data()->geom_xpos + 3 * g, w.data()->geom_xmat + 9 * g, m->geom_size + 3 * g,
+                            o.data(), d.data(), m->geom_type[g]);
+      EXPECT_NEAR(t_own, t_mj, 1e-6) << "ray " << k << ": Embree's geom " << g << " is not at MuJoCo's distance";
     }
     // The reported normal is a unit vector facing the ray.
     EXPECT_NEAR(hit.normal.norm(), 1.0, 1e-9);
@@ -55,7 +64,7 @@ TEST(EmbreeScene, AgreesWithMjRayOn10000RandomRays) {
       hits, same, ties, curved, worst);
   EXPECT_GT(hits, 3000);  // a third of random directions point at something
   EXPECT_GT(curved, 20);
-  EXPECT_LE(ties, hits / 1000);
+  EXPECT_LE(ties, hits / 100);  // ties are rare: contacts, not overlaps, in the cell
 }
 
 TEST(EmbreeScene, FollowsTheArm) {
