@@ -384,14 +384,16 @@ int main(int argc, char** argv) {
         std::fprintf(
             stderr,
             " [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f noise %.2f bound %.2f llr %.1f rllr %.1f wsig "
-            "%.2f bias %.2f beyond %.3f ext %.0f thru %.4f reached %.2f tilt %.3f deg z %.2f mm]",
+            "%.2f bias %.2f beyond %.3f ext %.0f thru %.4f reached %.2f tilt %.3f deg z %.2f mm edge %.2f mm "
+            "%.2f deg]",
             t.ours.coverage, t.ours.fitness, t.ours.free_space, t.ours.ambiguity, t.ours.wall_residual,
             1e3 * t.ours.noise_m, 1e3 * t.ours.seam_error_bound_m, t.ours.margin_llr,
             t.ours.residual_margin_llr, 1e3 * t.ours.wall_sigma_m, 1e3 * t.ours.wall_side_bias_m,
             t.ours.beyond_share, 1e3 * t.ours.beyond_extent_m, t.ours.see_through_share,
             t.ours.reached_coverage,
             rad2deg(std::acos(std::min(1.0, t.ours.table_plane.head<3>().normalized().z()))),
-            -1e3 * t.ours.table_plane.w() / std::max(1e-9, t.ours.table_plane.head<3>().norm()));
+            -1e3 * t.ours.table_plane.w() / std::max(1e-9, t.ours.table_plane.head<3>().norm()),
+            1e3 * t.ours.edge_shift_m, rad2deg(t.ours.edge_turn_rad));
         for (const auto& [what, p] : t.impostors)
           std::fprintf(stderr,
                        " | %s %s [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f beyond %.3f ext %.0f thru "

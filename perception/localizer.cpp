@@ -221,11 +221,27 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   } else {
     uncertainty = pose_uncertainty(best.icp.terms, s.uncertainty);
     out.ambiguity = ambiguity(best, rivals, model, s.verdict);
+    // Rays near the model's depth edges: the beam straddles two surfaces there and may report a range
+    // between them (mixed pixels: seen from one side they do not average out, and the fit's residuals cannot
+    // show it). The uncertainty counts a bias on them besides the noise, the same along the edge (the fine
+    // fit once more, with them marked); where the pose rests on them, it grows.
+    PlanarIcpSetting marked = s.icp;
+    marked.rays.mark_depth_edges = true;
+    const IcpResult f =
+        planar_icp(thinned(rays_near_pose(scene, scan_base, viewpoints_base, model, best.P, s.icp.rays),
+                           static_cast<size_t>(s.icp.fine_points)),
+                   scene, model, best.P, s.icp.fine_iterations, true, marked);
+    const PoseUncertainty with_edges = pose_uncertainty(f.terms, s.uncertainty);
+    out.edge_shift_m = std::max(0.0, seam_error_bound_m(with_edges, seams, s.uncertainty) -
+                                         seam_error_bound_m(uncertainty, seams, s.uncertainty));
+    out.edge_turn_rad =
+        std::max(0.0, yaw_bound_rad(with_edges, s.uncertainty) - yaw_bound_rad(uncertainty, s.uncertainty));
   }
   stage("fit");
   out.covariance = uncertainty.covariance;
   out.yaw_bound_rad = yaw_bound_rad(uncertainty, s.uncertainty);
-  out.seam_error_bound_m = seam_error_bound_m(uncertainty, seams, s.uncertainty) + out.wall_side_bias_m;
+  out.seam_error_bound_m =
+      seam_error_bound_m(uncertainty, seams, s.uncertainty) + out.wall_side_bias_m + out.edge_shift_m;
   // A fit about as likely that welds within the tolerance of this one is part of the uncertainty; one beyond
   // it makes the answer ambiguous (the verdict).
   if (out.margin_llr < s.verdict.min_margin_llr && out.rival_offset_m <= s.verdict.weld_tolerance_m)

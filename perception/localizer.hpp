@@ -94,6 +94,11 @@ struct PoseEstimate {
   Vec3 beyond_at_part = Vec3::Zero();  ///< ... and its centre
   /// Without viewpoints: what the bound allows for points taken for the other face of a thin wall [m].
   double wall_side_bias_m = 0.0;
+  /// With viewpoints: how much the seam bound grows when the rays near the model's depth edges carry a
+  /// mixed-pixel bias besides the noise (RayMatchSetting); it is part of seam_error_bound_m [m]. How much the
+  /// yaw bound would grow is reported and not added: on eight passes it made the tube on its plate uncertain
+  /// by 0.5-0.6 deg where it was 0.02-0.09 deg off (50 cells) [rad].
+  double edge_shift_m = 0.0, edge_turn_rad = 0.0;
   double seconds = 0.0;
   std::vector<std::pair<std::string, double>>
       stage_seconds;  ///< model, table, objects, search, refine, fit (the surface fit, the bounds), verdict

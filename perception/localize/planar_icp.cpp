@@ -106,6 +106,10 @@ IcpResult planar_icp(const std::vector<ScanPoint>& scan, const ScenePoints& c, P
   const bool cast = fine && !scan.empty() && scan.front().range > 0;
   const double in_plane2 = s.in_plane_spacings * s.in_plane_spacings * m.spacing_m * m.spacing_m;
   std::vector<int> face;
+  const double edge_bias_m = s.rays.mixed_pixel_share * lim.trim_m / 2;
+  const std::vector<uint8_t> near_edge = fine && cast && s.rays.mark_depth_edges
+                                             ? rays_near_depth_edges(scan, m, P, s.rays)
+                                             : std::vector<uint8_t>(scan.size(), 0);
   for (int it = 0; it < iterations; ++it) {
     const double f = iterations > 1 ? static_cast<double>(it) / (iterations - 1) : 1.0;
     const double max_d = std::max(lim.trim_m, s.start_distance_m + f * (lim.trim_m - s.start_distance_m));
@@ -127,7 +131,8 @@ IcpResult planar_icp(const std::vector<ScanPoint>& scan, const ScenePoints& c, P
         A += J * J.transpose();
         b -= J * r;
         ++used;
-        if (fine && it == iterations - 1) out.terms.push_back({J, r, 1.0, m.pts[kk]});
+        if (fine && it == iterations - 1)
+          out.terms.push_back({J, r, 1.0, m.pts[kk], near_edge[i] ? edge_bias_m : 0.0});
       }
     }
     for (const ScanPoint& sp : scan) {

@@ -23,7 +23,7 @@ long long cell_key(const Vec3& p, double cell) {
 PoseUncertainty pose_uncertainty(const std::vector<ResidualTerm>& terms, const PoseUncertaintySetting& s) {
   PoseUncertainty out;
   Mat3 H = Mat3::Zero();
-  std::unordered_map<long long, Vec3> g;
+  std::unordered_map<long long, Vec3> g, unseen;
   double wr2 = 0.0, wsum = 0.0;
   for (const ResidualTerm& t : terms) {
     if (t.w <= 0.0) continue;
@@ -32,6 +32,8 @@ PoseUncertainty pose_uncertainty(const std::vector<ResidualTerm>& terms, const P
     wsum += t.w;
     auto it = g.try_emplace(cell_key(t.at, s.cluster_cell_m), Vec3::Zero()).first;
     it->second += t.w * t.r * t.J;
+    if (t.unseen_sigma_m > 0.0)
+      unseen.try_emplace(it->first, Vec3::Zero()).first->second += t.w * t.unseen_sigma_m * t.J;
   }
   out.clusters = static_cast<int>(g.size());
   if (out.clusters < kMinClusters) return out;
@@ -39,6 +41,7 @@ PoseUncertainty pose_uncertainty(const std::vector<ResidualTerm>& terms, const P
   for (const auto& [key, gc] : g) B += gc * gc.transpose();
   // Small-sample correction of the cluster sums: G / (G - k) with k = 3 parameters.
   B *= static_cast<double>(out.clusters) / static_cast<double>(out.clusters - 3);
+  for (const auto& [key, gu] : unseen) B += gu * gu.transpose();
   const Eigen::SelfAdjointEigenSolver<Mat3> eig(H);
   if (eig.eigenvalues().minCoeff() <= 1e-12 * std::max(1.0, eig.eigenvalues().maxCoeff())) return out;
   const Mat3 Hi =

@@ -21,6 +21,9 @@ struct ResidualTerm {
   double r = 0.0;
   double w = 1.0;
   Vec3 at = Vec3::Zero();
+  /// An error of about this size besides the range noise that the residuals cannot show, the same for the
+  /// residuals of one cell (a bias: mixed pixels at a depth edge seen from one side) [m].
+  double unseen_sigma_m = 0.0;
 };
 
 struct PoseUncertaintySetting {

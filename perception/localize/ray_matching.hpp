@@ -13,14 +13,25 @@
 namespace weldtwin {
 
 struct RayMatchSetting {
-  double ray_window_m = 0.02;     ///< a ray meeting the model this much before or beyond its range meets
-                                  ///< something else [m]
-  double level_normal_z = 0.95;   ///< faces this level say nothing of (x, y, yaw)
-  double outline_band_m = 0.008;  ///< table-level points this close to the footprint's outline take part [m]
-  double box_margin_m = 0.015;    ///< rays whose points lie this far beyond the model's box are not cast [m]
-  double deep_level_m = 0.004;    ///< points this close to a level face, deep inside it, are not cast [m]
-  double deep_edge_sigmas = 3.0;  ///< deep inside: farther from its edges than this many noise sigmas ...
-  double deep_edge_m = 0.002;     ///< ... plus this [m]
+  /// Rays near a depth edge of the model: the LiDAR's beam, a few millimetres wide at the part and its
+  /// samples about as far apart, straddles the edge there and may report a range between the two surfaces
+  /// (a mixed pixel), behind the near one or before the far one. A ray is near one when a ray beside it,
+  /// this far off at the range it meets the model, meets the model more than depth_jump_m nearer or
+  /// farther, or misses it [m]. Their residuals carry a bias besides the range noise, the same along the
+  /// edge (ResidualTerm::unseen_sigma_m): the blends the trim keeps lie anywhere within it, half of it off on
+  /// average, and this share of the samples at an edge blend.
+  double beam_offset_m = 0.004;
+  double depth_jump_m = 0.01;      ///< [m]
+  double mixed_pixel_share = 0.5;  ///< samples at a depth edge that report a blend (pessimistic: half)
+  bool mark_depth_edges = false;   ///< mark the rays near depth edges (decided where the fit starts)
+  double ray_window_m = 0.02;      ///< a ray meeting the model this much before or beyond its range meets
+                                   ///< something else [m]
+  double level_normal_z = 0.95;    ///< faces this level say nothing of (x, y, yaw)
+  double outline_band_m = 0.008;   ///< table-level points this close to the footprint's outline take part [m]
+  double box_margin_m = 0.015;     ///< rays whose points lie this far beyond the model's box are not cast [m]
+  double deep_level_m = 0.004;     ///< points this close to a level face, deep inside it, are not cast [m]
+  double deep_edge_sigmas = 3.0;   ///< deep inside: farther from its edges than this many noise sigmas ...
+  double deep_edge_m = 0.002;      ///< ... plus this [m]
 };
 
 /// The rays that may meet a face that can move (x, y, yaw) at pose P (table frame -> part frame):
@@ -33,6 +44,11 @@ std::vector<ScanPoint> rays_near_pose(const ScenePoints& scene, const std::vecto
 /// face[i]: the model sample where ray i meets the model at pose P, or -1 where it meets something else,
 /// a level face, a face seen from behind, or lands near a feature edge or the table (within edge_margin_m),
 /// where which face a ray meets changes with the pose itself.
+/// Per ray of `rays` (with their origins, table frame): whether it passes near a depth edge of the model at
+/// pose P (see RayMatchSetting::beam_offset_m).
+std::vector<uint8_t> rays_near_depth_edges(const std::vector<ScanPoint>& rays, const PartModel& model,
+                                           const Iso3& P, const RayMatchSetting& setting = {});
+
 void match_rays(const std::vector<ScanPoint>& rays, PartModel& model, const Iso3& P, double edge_margin_m,
                 const RayMatchSetting& setting, std::vector<int>& face);
 

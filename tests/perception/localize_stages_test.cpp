@@ -10,6 +10,7 @@
 #include "perception/localize/part_extent.hpp"
 #include "perception/localize/pose_search.hpp"
 #include "perception/localize/pose_uncertainty.hpp"
+#include "perception/localize/ray_matching.hpp"
 #include "perception/localize/scene_points.hpp"
 #include "perception/localize/see_through.hpp"
 #include "perception/localize/surface_icp.hpp"
@@ -386,6 +387,60 @@ TEST(LocalizeStages, WithoutViewpointsWallsThinAgainstTheNoiseAreRefused) {
   in.noise_m = 0.0023;
   in.rays = true;
   EXPECT_EQ(verdict_reason(in), "");
+}
+
+TEST(LocalizeStages, AnErrorTheResidualsCannotShowWidensTheBoundWhereOnlyItsTermsConstrain) {
+  // x is constrained only by 200 terms in one cell, y and the turn by terms spread over many cells; all
+  // residuals are tiny. Marked with a shared 1 mm bias, x is uncertain by at least that much; unmarked, the
+  // residuals say it is known to well under it. y is not touched by the mark.
+  std::vector<ResidualTerm> terms;
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> r(0.0, 1e-5);
+  for (int i = 0; i < 200; ++i) terms.push_back({Vec3(0, 1, 0), r(rng), 1.0, Vec3(0.10, 0.0, 0.0), 0.001});
+  for (int i = 0; i < 400; ++i) {
+    const double x = -0.2 + 0.001 * i;
+    terms.push_back({Vec3(x, 0, 1), r(rng), 1.0, Vec3(x, 0.05, 0.0)});
+    terms.push_back({Vec3(-x, 0, 1), r(rng), 1.0, Vec3(x, -0.05, 0.0)});
+  }
+  const PoseUncertainty marked = pose_uncertainty(terms, PoseUncertaintySetting());
+  for (ResidualTerm& t : terms) t.unseen_sigma_m = 0.0;
+  const PoseUncertainty plain = pose_uncertainty(terms, PoseUncertaintySetting());
+  ASSERT_GT(marked.clusters, 10);
+  EXPECT_GE(std::sqrt(marked.covariance(1, 1)), 0.00099);
+  EXPECT_LT(std::sqrt(plain.covariance(1, 1)), 0.0001);
+  EXPECT_NEAR(marked.covariance(2, 2), plain.covariance(2, 2), 1e-12);
+}
+
+TEST(LocalizeStages, RaysBesideADepthEdgeAreMarkedRaysOnAnOpenFaceAreNot) {
+  // Straight down onto the plate of the tube on its plate: 1 mm inside its rim the beam straddles the rim
+  // (the ray beside it meets the table, not the part), 1 mm outside too (it meets nothing of the part, the
+  // ray beside it the plate); on the plate's top far from any edge, all rays beside it meet the same face.
+  const PartSpec part = PartSpec::load(test::repo("scenes/parts/tube_on_plate.yaml"));
+  PartModel model;
+  build_part_model(load_mesh(part.mesh_path), 0.0, PartModelSetting(), 0, model);
+  const Vec3 lo = model.lo, hi = model.hi;
+  auto down_at = [](double x, double y) {
+    ScanPoint sp;
+    sp.origin = Vec3(x, y, 0.5);
+    sp.ray = Vec3(0, 0, -1);
+    sp.range = 0.49;
+    sp.raw = sp.smooth = sp.origin + sp.range * sp.ray;
+    return sp;
+  };
+  std::vector<ScanPoint> rays{down_at(lo.x() + 0.001, 0.5 * (lo.y() + hi.y())),
+                              down_at(lo.x() - 0.001, 0.5 * (lo.y() + hi.y()))};
+  int open = 0;
+  for (size_t k = 0; k < model.pts.size() && open < 20; ++k) {
+    if (model.nrm[k].z() < 0.99 || model.pts[k].z() > 0.5 * model.height || model.edge_distance[k] < 0.02)
+      continue;
+    rays.push_back(down_at(model.pts[k].x(), model.pts[k].y()));
+    ++open;
+  }
+  ASSERT_EQ(open, 20);
+  const std::vector<uint8_t> near = rays_near_depth_edges(rays, model, Iso3::Identity());
+  EXPECT_TRUE(near[0]);
+  EXPECT_TRUE(near[1]);
+  for (size_t i = 2; i < rays.size(); ++i) EXPECT_FALSE(near[i]) << rays[i].origin.transpose();
 }
 
 }  // namespace

@@ -48,12 +48,12 @@ TEST(EmbreeScene, AgreesWithMjRayOn10000RandomRays) {
       // MuJoCo, cast at Embree's geom alone, meets it at that same distance.
       ++ties;
       const int g = hit.geom;
-      const double t_own =
-          m->geom_type[g] == mjGEOM_MESH
-              ? mj_rayMesh(m, w.data(), g, o.data(), d.data())
-              : mju_rayGeom(w.data()->geom_xpos + 3 * g, w.data()->geom_xmat + 9 * g, m->geom_size + 3 * g,
-                            o.data(), d.data(), m->geom_type[g]);
-      EXPECT_NEAR(t_own, t_mj, 1e-6) << "ray " << k << ": Embree's geom " << g << " is not at MuJoCo's distance";
+      const double t_own = m->geom_type[g] == mjGEOM_MESH
+                               ? mj_rayMesh(m, w.data(), g, o.data(), d.data())
+                               : mju_rayGeom(w.data()->geom_xpos + 3 * g, w.data()->geom_xmat + 9 * g,
+                                             m->geom_size + 3 * g, o.data(), d.data(), m->geom_type[g]);
+      EXPECT_NEAR(t_own, t_mj, 1e-6) << "ray " << k << ": Embree's geom " << g
+                                     << " is not at MuJoCo's distance";
     }
     // The reported normal is a unit vector facing the ray.
     EXPECT_NEAR(hit.normal.norm(), 1.0, 1e-9);
