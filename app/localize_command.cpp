@@ -52,6 +52,9 @@ nlohmann::json pose_to_json(const PoseEstimate& pose) {
         {pose.covariance(r, 0), pose.covariance(r, 1), pose.covariance(r, 2)});
   if (pose.rays_cast) out["see_through_share"] = pose.see_through_share;
   if (pose.rays_cast && pose.reached_coverage >= 0) out["reached_coverage"] = pose.reached_coverage;
+  if (pose.rays_cast)  // what the bound allows for mixed pixels at the model's depth edges
+    out["depth_edge_bias_mm"] =
+        std::isfinite(pose.edge_shift_m) ? nlohmann::json(1e3 * pose.edge_shift_m) : nlohmann::json();
   out["beyond_share"] = pose.beyond_share;
   out["beyond_extent_mm"] = 1e3 * pose.beyond_extent_m;
   if (!pose.rays_cast) {
