@@ -267,22 +267,40 @@ TEST(LocalizeStages, ThePartLargerThanItsModelShowsPastTheModelsEdges) {
   EXPECT_NE(verdict_reason(in).find("past the model's edges"), std::string::npos) << verdict_reason(in);
 }
 
+// The tube scene seen from the -y side with every point's viewpoint: the cloud, the part model, the scene
+// points with their rays, and the true pose (table frame -> part frame).
+struct RayScene {
+  explicit RayScene(uint64_t seed) : sc(tube_scene(0.0015, seed)) {
+    cloud = one_sided_scan(sc.mesh, sc.truth, -0.35, 0.0015, seed, &vps);
+    build_part_model(sc.mesh, 0.0, PartModelSetting(), 0, model);
+    const TablePlane table = find_table_plane(cloud);
+    table_found = table.found;
+    if (!table_found) return;
+    NoiseLimits lim;
+    lim.noise_m = table.noise_m;
+    lim.height_cut_m = std::max(0.005, 3.0 * table.noise_m);
+    scene = scene_points(cloud, vps, table.plane, lim, model.height, 1.2);
+    P0 = (scene.T_table_base * sc.truth).inverse();
+  }
+  Scene sc;
+  std::vector<Vec3> cloud, vps;
+  PartModel model;
+  bool table_found = false;
+  ScenePoints scene;
+  Iso3 P0 = Iso3::Identity();
+};
+
 TEST(LocalizeStages, RaysGoThroughAModelPutWhereThePartIsNot) {
   // With viewpoints: at the true pose hardly a ray reaches a point behind the model's surface; moved 30 mm,
   // the model stands where the LiDAR saw the table and the plate, and the verdict's bar is passed.
-  const Scene sc = tube_scene(0.0015, 6);
-  std::vector<Vec3> vps;
-  const std::vector<Vec3> cloud = one_sided_scan(sc.mesh, sc.truth, -0.35, 0.0015, 6, &vps);
-  PartModel model;
-  build_part_model(sc.mesh, 0.0, PartModelSetting(), 0, model);
-  const TablePlane table = find_table_plane(cloud);
-  ASSERT_TRUE(table.found);
-  NoiseLimits lim;
-  lim.noise_m = table.noise_m;
-  lim.height_cut_m = std::max(0.005, 3.0 * table.noise_m);
-  const ScenePoints scene = scene_points(cloud, vps, table.plane, lim, model.height, 1.2);
-  ASSERT_FALSE(scene.ray_points.empty());
-  const Iso3 P0 = (scene.T_table_base * sc.truth).inverse();
+  RayScene r(6);
+  ASSERT_TRUE(r.table_found);
+  ASSERT_FALSE(r.scene.ray_points.empty());
+  const std::vector<Vec3>& cloud = r.cloud;
+  const std::vector<Vec3>& vps = r.vps;
+  PartModel& model = r.model;
+  const ScenePoints& scene = r.scene;
+  const Iso3& P0 = r.P0;
   const SeeThrough right = rays_through_model(scene, cloud, vps, model, P0);
   EXPECT_GT(right.rays, 1000);
   EXPECT_LT(right.share(), 0.05);
@@ -301,18 +319,13 @@ TEST(LocalizeStages, TheRaysReachOnlyTheSideOfThePartTheLiDARFaces) {
   // Seen from the -y side only: the samples on faces turned towards the LiDAR are reached, those turned away
   // never are; of what the rays reached, nearly all is seen at the true pose (what one short pass is judged
   // against), and much less of it at a pose moved off the part.
-  const Scene sc = tube_scene(0.0015, 7);
-  std::vector<Vec3> vps;
-  const std::vector<Vec3> cloud = one_sided_scan(sc.mesh, sc.truth, -0.35, 0.0015, 7, &vps);
-  PartModel model;
-  build_part_model(sc.mesh, 0.0, PartModelSetting(), 0, model);
-  const TablePlane table = find_table_plane(cloud);
-  ASSERT_TRUE(table.found);
-  NoiseLimits lim;
-  lim.noise_m = table.noise_m;
-  lim.height_cut_m = std::max(0.005, 3.0 * table.noise_m);
-  const ScenePoints scene = scene_points(cloud, vps, table.plane, lim, model.height, 1.2);
-  const Iso3 P0 = (scene.T_table_base * sc.truth).inverse();
+  RayScene r(7);
+  ASSERT_TRUE(r.table_found);
+  const std::vector<Vec3>& cloud = r.cloud;
+  const std::vector<Vec3>& vps = r.vps;
+  PartModel& model = r.model;
+  const ScenePoints& scene = r.scene;
+  const Iso3& P0 = r.P0;
   const SeeThrough rays = rays_through_model(scene, cloud, vps, model, P0);
   ASSERT_EQ(rays.reached.size(), model.pts.size());
   // The LiDAR's side in the part frame: the part is turned 20 deg, the sensors lie towards base -y.
