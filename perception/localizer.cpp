@@ -111,71 +111,13 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   const std::vector<Hypothesis>& hyps = search.hypotheses;
   stage("search");
 
-  // 4. Refinement, in batches of the search's hypotheses (most promising first): every hypothesis of a batch
-  // coarsely, the best few distinct fully. The next batch only when no finalist so far is allowed by the
-  // scan (the table seen, or rays through it, where it would stand): a short sweep sees little of the part,
-  // and its peaks may be lower than those of clamps and clutter.
-  auto better = [&](const Candidate& a, const Candidate& b) { return better_score(a.score, b.score); };
-  // What the rays say of a candidate: none may go through the part, and what they reached of it must be seen.
-  auto look_with_rays = [&](Candidate& c) {
-    const SeeThrough rays = rays_through_model(scene, scan_base, viewpoints_base, model, c.P, s.see_through);
-    c.score.see_through = rays.share();
-    c.score.ray_count = rays.rays;
-    c.score.through_count = rays.through;
-    if (std::find(rays.reached.begin(), rays.reached.end(), 1) != rays.reached.end())
-      c.score.reached_coverage = coverage(scene, model, c.P, rays.reached, s.score);
-    c.rays_looked = true;
-  };
-  auto distinct_from = [&](const Candidate& r, const std::vector<Candidate>& others) {
-    for (const Candidate& o : others) {
-      const Iso3 D = o.P * r.P.inverse();
-      if (D.translation().norm() < s.distinct_finalist_m &&
-          Eigen::AngleAxisd(D.linear()).angle() < deg2rad(s.distinct_finalist_deg))
-        return false;
-    }
-    return true;
-  };
-  std::vector<Candidate> coarse, refined;
-  const size_t batch = static_cast<size_t>(std::max(1, s.search.refined_hypotheses));
-  for (size_t first = 0; first < hyps.size(); first += batch) {
-    const size_t n = std::min(batch, hyps.size() - first);
-    std::vector<Candidate> looked(n);
-    parallel_for(n, s.threads, [&](size_t i) {
-      const Hypothesis& h = hyps[first + i];
-      const Iso3 P0 = planar_pose(h.x, h.y, 0.0, h.yaw).inverse();
-      const IcpResult r = planar_icp(thinned(points_near_pose(scene.icp_points, model, P0, s.icp),
-                                             static_cast<size_t>(s.icp.coarse_points)),
-                                     scene, model, P0, s.icp.coarse_iterations, false, s.icp);
-      looked[i] = {r.P, r, score_pose(scene, footprint, model, r.P, s.score)};
-    });
-    // The best few distinct of this batch (and distinct from the finalists of earlier ones).
-    std::sort(looked.begin(), looked.end(), better);
-    std::vector<Candidate> chosen;
-    for (const Candidate& r : looked)
-      if (static_cast<int>(chosen.size()) < s.finalists && distinct_from(r, chosen) &&
-          distinct_from(r, refined))
-        chosen.push_back(r);
-    coarse.insert(coarse.end(), looked.begin(), looked.end());
-    // With rays, the finalists are refined by casting them; without, the surface fit (4c) refines them.
-    std::vector<Candidate> fine(chosen.size());
-    parallel_for(chosen.size(), s.threads, [&](size_t i) {
-      if (scene.ray_points.empty()) {
-        fine[i] = chosen[i];
-        return;
-      }
-      const Iso3& P = chosen[i].P;
-      const std::vector<ScanPoint> near =
-          thinned(rays_near_pose(scene, scan_base, viewpoints_base, model, P, s.icp.rays),
-                  static_cast<size_t>(s.icp.fine_points));
-      const IcpResult f = planar_icp(near, scene, model, P, s.icp.fine_iterations, true, s.icp);
-      fine[i] = {f.P, f, score_pose(scene, footprint, model, f.P, s.score)};
-      look_with_rays(fine[i]);
-    });
-    refined.insert(refined.end(), fine.begin(), fine.end());
-    if (std::any_of(refined.begin(), refined.end(), [](const Candidate& c) { return c.score.allowed(); }))
-      break;
-  }
-  std::sort(refined.begin(), refined.end(), better);
+  // 4. Refinement of the peaks, in batches until a finalist is allowed by the scan.
+  const RefineInput refine_in{scene, scan_base, viewpoints_base, model, footprint};
+  RefineSetting refine = s.refine;
+  refine.threads = s.threads;
+  Refinement refinement = refine_hypotheses(refine_in, hyps, s.icp, s.score, s.see_through, refine);
+  std::vector<Candidate>& coarse = refinement.coarse;
+  std::vector<Candidate>& refined = refinement.refined;
   stage("refine");
   if (refined.empty()) return finish("no pose survived the refinement");
   Candidate& best = refined.front();
@@ -193,7 +135,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   for (Candidate& r : coarse) {
     // With rays, a coarse rival that scores nearly as well must leave the rays room as the best does.
     if (!scene.ray_points.empty() && r.score.support() >= s.verdict.ambiguity_ratio * best.score.support())
-      look_with_rays(r);
+      look_with_rays(refine_in, r, s.score, s.see_through);
     candidates.push_back(&r);
   }
   const std::vector<const Candidate*> rivals = distinct_rivals(best, candidates, model, s.verdict);

@@ -1,13 +1,19 @@
 // Finding a part in a base-frame cloud of a table scene, with figures that say how far to trust the answer.
 // The recipe (localizer.cpp) runs the stages in perception/localize/, one file each:
-//   part_model    the mesh made ready: samples, visibility, thickness, feature edges, footprint
-//   (PreparedPart) table_plane   the table (cascaded RANSAC, refitted away from what stands on it) and the
-//   range noise scene_points  the scan's points in the table frame: objects, the cells near the table, the
-//   rays pose_search   (x, y, yaw) by Hough voting of oriented wall points, no initial guess needed
-//   planar_icp    (x, y, yaw) point-to-plane ICP with symmetric trimming (ray_matching: by rays, when the
-//                 cloud carries every point's viewpoint)
-//   pose_score    inliers, coverage, free space, the walls' residual
-//   verdict       ambiguity between distinct poses, and the figures against their limits
+// clang-format off
+//   part_model        the mesh made ready: samples, visibility, thickness, edges, footprint (PreparedPart)
+//   table_plane       the table (cascaded RANSAC, refitted away from what stands on it) and the range noise
+//   scene_points      the scan's points in the table frame: objects, the cells near the table, the rays
+//   pose_search       (x, y, yaw) by Hough voting of oriented wall points, no initial guess needed
+//   planar_icp        (x, y, yaw) point-to-plane ICP with symmetric trimming (ray_matching: by rays, when
+//                     the cloud carries every point's viewpoint)
+//   refinement        the peaks refined in batches until one is allowed by the scan
+//   pose_score        inliers, coverage, free space, the walls' residual (see_through: what the rays say)
+//   surface_icp       without viewpoints: the fit onto the mesh's exact surface (wall_side: across the walls)
+//   pose_uncertainty  the covariance of the fit and the 95 % bounds on the seams and the yaw
+//   part_extent       the scan going on past the model's edges
+//   verdict           ambiguity between distinct poses, and the figures against their limits
+// clang-format on
 #pragma once
 
 #include <memory>
@@ -22,6 +28,7 @@
 #include "perception/localize/pose_score.hpp"
 #include "perception/localize/pose_search.hpp"
 #include "perception/localize/pose_uncertainty.hpp"
+#include "perception/localize/refinement.hpp"
 #include "perception/localize/scene_points.hpp"
 #include "perception/localize/see_through.hpp"
 #include "perception/localize/surface_icp.hpp"
@@ -45,10 +52,8 @@ struct LocalizeSetting {
   SurfaceIcpSetting surface;
   PoseUncertaintySetting uncertainty;
   WallSideSetting wall_side;
-  int finalists = 3;                   ///< coarse results refined fully
-  double distinct_finalist_m = 0.004;  ///< finalists closer than this ... [m]
-  double distinct_finalist_deg = 2.0;  ///< ... and this are one [deg]
-  int threads = 0;                     ///< hypotheses refined side by side (0: all cores)
+  RefineSetting refine;
+  int threads = 0;  ///< hypotheses refined side by side (0: all cores)
   // Optional rough pose (T_base_part) from elsewhere: refined first, beside the peaks of the global search.
   bool use_initial_guess = false;
   Iso3 initial_guess = Iso3::Identity();

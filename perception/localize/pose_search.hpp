@@ -24,9 +24,6 @@ struct PoseSearchSetting {
   double distinct_yaw_deg = 6.0;  ///< ... and in yaw are one peak [deg]
   int quick_look_points = 800;    ///< points of the quick look
   double quick_look_m = 0.006;    ///< a point within this of a model sample counts in the quick look [m]
-  /// The peaks are refined in batches of this many, most promising first; the next batch only when no pose
-  /// so far is allowed by the scan (the localizer's recipe)
-  int refined_hypotheses = 5;
 };
 
 /// A pose of the model on the table: T_table_part = planar_pose(x, y, 0, yaw).
