@@ -113,9 +113,8 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
 
   // 4. Refinement of the peaks, in batches until a finalist is allowed by the scan.
   const RefineInput refine_in{scene, scan_base, viewpoints_base, model, footprint};
-  RefineSetting refine = s.refine;
-  refine.threads = s.threads;
-  Refinement refinement = refine_hypotheses(refine_in, hyps, s.icp, s.score, s.see_through, refine);
+  Refinement refinement =
+      refine_hypotheses(refine_in, hyps, s.icp, s.score, s.see_through, s.refine, s.threads);
   std::vector<Candidate>& coarse = refinement.coarse;
   std::vector<Candidate>& refined = refinement.refined;
   stage("refine");

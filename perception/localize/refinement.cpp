@@ -23,7 +23,7 @@ void look_with_rays(const RefineInput& in, Candidate& c, const PoseScoreSetting&
 
 Refinement refine_hypotheses(const RefineInput& in, const std::vector<Hypothesis>& hyps,
                              const PlanarIcpSetting& icp, const PoseScoreSetting& score,
-                             const SeeThroughSetting& see_through, const RefineSetting& s) {
+                             const SeeThroughSetting& see_through, const RefineSetting& s, int threads) {
   const ScenePoints& scene = in.scene;
   PartModel& model = in.model;
   auto better = [&](const Candidate& a, const Candidate& b) { return better_score(a.score, b.score); };
@@ -43,7 +43,7 @@ Refinement refine_hypotheses(const RefineInput& in, const std::vector<Hypothesis
   for (size_t first = 0; first < hyps.size(); first += batch) {
     const size_t n = std::min(batch, hyps.size() - first);
     std::vector<Candidate> looked(n);
-    parallel_for(n, s.threads, [&](size_t i) {
+    parallel_for(n, threads, [&](size_t i) {
       const Hypothesis& h = hyps[first + i];
       const Iso3 P0 = planar_pose(h.x, h.y, 0.0, h.yaw).inverse();
       const IcpResult r = planar_icp(
@@ -61,7 +61,7 @@ Refinement refine_hypotheses(const RefineInput& in, const std::vector<Hypothesis
     coarse.insert(coarse.end(), looked.begin(), looked.end());
     // With rays, the finalists are refined by casting them; without, the surface fit refines them.
     std::vector<Candidate> fine(chosen.size());
-    parallel_for(chosen.size(), s.threads, [&](size_t i) {
+    parallel_for(chosen.size(), threads, [&](size_t i) {
       if (scene.ray_points.empty()) {
         fine[i] = chosen[i];
         return;

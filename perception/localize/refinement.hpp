@@ -22,7 +22,6 @@ struct RefineSetting {
   int finalists = 3;                   ///< coarse results of a batch refined fully
   double distinct_finalist_m = 0.004;  ///< finalists closer than this ... [m]
   double distinct_finalist_deg = 2.0;  ///< ... and this are one [deg]
-  int threads = 0;                     ///< peaks refined side by side (0: all cores)
 };
 
 /// What the stages that follow weigh: every peak's coarse fit, and the finalists, best first.
@@ -39,10 +38,10 @@ struct RefineInput {
   const Grid2& footprint;  ///< where the part rests, eroded by the noise
 };
 
-/// The peaks refined (see above); `refine.threads` of them side by side.
+/// The peaks refined (see above), `threads` of them side by side (0: all cores).
 Refinement refine_hypotheses(const RefineInput& in, const std::vector<Hypothesis>& hypotheses,
                              const PlanarIcpSetting& icp, const PoseScoreSetting& score,
-                             const SeeThroughSetting& see_through, const RefineSetting& refine);
+                             const SeeThroughSetting& see_through, const RefineSetting& refine, int threads);
 
 /// What the rays say of a candidate: the share of them that go through it, and what they reached of it that
 /// the scan shows (Candidate::rays_looked).
