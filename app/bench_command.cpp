@@ -49,9 +49,10 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using nlohmann::json;
 
-// The cell, with another robot file's arm and tooling when one is given.
-CellSpec with_robot(CellSpec cell, const std::string& robot_file) {
-  if (!robot_file.empty()) cell.use_robot_file(robot_file);
+// The cell, with another robot file's arm and tooling and another placement area when they are given.
+CellSpec adapted(CellSpec cell, const BenchCommand& cmd) {
+  if (!cmd.robot.empty()) cell.use_robot_file(cmd.robot);
+  if (cmd.placement) cell.placement.area = *cmd.placement;
   return cell;
 }
 
@@ -76,11 +77,11 @@ struct BenchCell {
     return *prepared;
   }
 
-  BenchCell(const std::string& file, const std::string& sweep, const std::string& robot_file)
-      : cell(with_robot(CellSpec::load(file), robot_file)),
+  BenchCell(const std::string& file, const BenchCommand& cmd)
+      : cell(adapted(CellSpec::load(file), cmd)),
         part(PartSpec::load(cell.part_spec)),
         robot(load_cell_robot(cell)),
-        program(SweepProgram::load(sweep.empty() ? cell.sweep_program : sweep, robot)),
+        program(SweepProgram::load(cmd.sweep.empty() ? cell.sweep_program : cmd.sweep, robot)),
         mesh(load_mesh(part.mesh_path)),
         seam_points(part.seam_points(0.001)),
         symmetry(z_symmetry_order(mesh)) {}
@@ -141,6 +142,7 @@ json draw_json(const Draw& d, const std::vector<BenchCell>& cells, const BenchCo
   j["lidar_seed"] = d.lidar_seed;
   if (!cmd.sweep.empty()) j["sweep"] = std::filesystem::path(cmd.sweep).stem().string();
   if (!cmd.robot.empty()) j["robot"] = std::filesystem::path(cmd.robot).stem().string();
+  if (cmd.placement) j["placement"] = placement_area_name(*cmd.placement);
   if (!cmd.viewpoints) j["viewpoints"] = false;
   if (cmd.mount_error_m > 0 || cmd.mount_error_rad > 0) {
     j["mount_error_mm"] = {rounded(1e3 * d.mount_xyz_m.x(), 1e-4), rounded(1e3 * d.mount_xyz_m.y(), 1e-4),
@@ -480,12 +482,11 @@ int run_bench(const BenchCommand& cmd_in) {
       cmd.cells.push_back(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/" + name + ".yaml");
   if (cmd.jobs <= 0) cmd.jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   std::vector<BenchCell> cells;
-  for (const std::string& f : cmd.cells) cells.emplace_back(f, cmd.sweep, cmd.robot);
+  for (const std::string& f : cmd.cells) cells.emplace_back(f, cmd);
   std::optional<CalibrationCell> calibration;
   if (cmd.calibrate)
     calibration.emplace(
-        with_robot(CellSpec::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/calibration.yaml"),
-                   cmd.robot),
+        adapted(CellSpec::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/calibration.yaml"), cmd),
         cells.front().robot);
 
   std::vector<uint64_t> indices;

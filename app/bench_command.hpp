@@ -8,8 +8,11 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
+
+#include "core/cell_spec.hpp"  // PlacementSpec
 
 namespace weldtwin {
 
@@ -31,7 +34,9 @@ struct BenchCommand {
   double encoder_noise_rad = 0.0;  ///< joint encoder noise (sigma) on the recorded joint states [rad]
   std::string sweep;               ///< sweep program for every cell ("" = each cell's own)
   std::string robot;               ///< robot file (arm and tooling) for every cell ("" = each cell's own)
-  bool viewpoints = true;          ///< localize with every point's viewpoint (off: as other tools' clouds)
+  std::optional<PlacementSpec::Area>
+      placement;           ///< where parts are drawn in every cell (unset: each cell's own)
+  bool viewpoints = true;  ///< localize with every point's viewpoint (off: as other tools' clouds)
   bool calibrate =
       false;  ///< find each trial's mount from a sweep of the calibration cell first (as weldtwin calibrate)
   bool quiet = false;

@@ -8,6 +8,7 @@
 #include "app/calibrate_command.hpp"
 #include "app/localize_command.hpp"
 #include "app/plan_command.hpp"
+#include "app/reach_command.hpp"
 #include "app/robot_gate.hpp"
 #include "app/run_command.hpp"
 #include "app/scan_command.hpp"
@@ -60,6 +61,10 @@ int main(int argc, char** argv) {
                "send the plan to --robot: only the plan whose replay passed in this run (its SHA-256 is in "
                "the passed report), recorded in DIR/execution.json; Ctrl-C stops the arm and waits for it to "
                "halt");
+  rc->add_flag("!--no-guidance", run.guidance,
+               "when the part cannot be welded where it lies, do not look for where it could be (by default "
+               "the nearest placement that plans and replays clean in the twin is named, and with the "
+               "report's pictures the table's weldability map is drawn)");
   rc->add_option("--speed", run.speed_fraction, "speed override on the robot, (0, 1] (default 1)")
       ->check(CLI::Range(1e-3, 1.0));
   rc->add_option("--robot-timeout-s", run.robot_timeout_s,
@@ -182,6 +187,12 @@ int main(int argc, char** argv) {
         "robot file (arm and tooling) for every cell, e.g. scenes/robots/aubo_i5_bent22_cell.yaml for "
         "the 22 deg swan-neck torch (default: each cell's own)")
       ->check(CLI::ExistingFile);
+  std::string placement;
+  bc->add_option("--placement", placement,
+                 "where parts are drawn: 'ring' (the seams 0.40-0.56 m from the robot axis, within 75 deg of "
+                 "its front) or 'table' (anywhere on the table top where part and clamps fit, clear of the "
+                 "robot base); default: each cell's own (the shipped cells: ring)")
+      ->check(CLI::IsMember({"ring", "table"}));
   bc->add_flag("!--no-viewpoints", bench.viewpoints,
                "localize without the points' viewpoints, as clouds from other tools come");
   double replay_step_ms = 5.0;
@@ -242,6 +253,24 @@ int main(int argc, char** argv) {
                  "also write the robot's URDF with the calibrated LiDAR mount (everything else as it was)");
   cc->add_flag("-q,--quiet", cal.quiet, "no progress line");
 
+  weldtwin::ReachCommand reach;
+  CLI::App* wc = app.add_subcommand(
+      "reach",
+      "Where on the cell's table the part can be welded: a map of placements (a grid of positions, every "
+      "yaw step; the part held by the cell's clamp sites), each judged by whether every seam's stations, "
+      "approach and departure are reached clear of the table, clamps, clutter and part with the planner's "
+      "angle windows and directions. Writes DIR/map.png (green: welds at that share of yaws; red: the arm "
+      "collides; orange: out of reach; grey: no room) and DIR/map.json");
+  wc->add_option("part", reach.part, "part spec (YAML)")->required()->check(CLI::ExistingFile);
+  wc->add_option("cell", reach.cell, "cell (default: scenes/cells/default.yaml)")->check(CLI::ExistingFile);
+  wc->add_option("--robot", reach.robot, "robot file (arm and tooling) instead of the cell's")
+      ->check(CLI::ExistingFile);
+  wc->add_option("--out", reach.out, "output directory")->capture_default_str();
+  wc->add_option("--grid-mm", reach.grid_mm, "spacing of the positions on the table [mm]")
+      ->capture_default_str();
+  wc->add_option("--yaw-step-deg", reach.yaw_step_deg, "spacing of the yaws [deg]")->capture_default_str();
+  wc->add_flag("-q,--quiet", reach.quiet, "no progress line");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -260,12 +289,14 @@ int main(int argc, char** argv) {
       } catch (const std::exception&) {
         throw weldtwin::InputError("--shard: '" + shard + "' is not K/N");
       }
+      if (!placement.empty()) bench.placement = weldtwin::placement_area_from(placement);
       bench.mount_error_m = 1e-3 * mount_mm;
       bench.replay_step_s = 1e-3 * replay_step_ms;
       bench.mount_error_rad = weldtwin::deg2rad(mount_deg);
       return weldtwin::run_bench(bench);
     }
     if (br->parsed()) return weldtwin::run_bench_report(bench_report);
+    if (wc->parsed()) return weldtwin::run_reach(reach);
     if (cc->parsed()) {
       if (*cal_seed_opt) cal.seed = cal_seed;
       return weldtwin::run_calibrate(cal);

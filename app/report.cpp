@@ -12,6 +12,7 @@
 
 #include "app/html_page.hpp"
 #include "sim/renderer.hpp"
+#include "sim/weldability_picture.hpp"
 
 namespace weldtwin {
 namespace {
@@ -276,6 +277,35 @@ nlohmann::json report_json(const RunRecord& run) {
                    {"min_clearance_t_s", r.min_clearance_t_s},
                    {"contacts", contacts}};
   }
+  if (run.suggestion) {
+    const PlacementSuggestion& g = *run.suggestion;
+    nlohmann::json sj = {{"found", g.found},
+                         {"screened", g.screened},
+                         {"planned_and_replayed", g.verified},
+                         {"seconds", g.seconds}};
+    if (g.found) {
+      sj["instruction"] = g.instruction;
+      sj["x_m"] = g.T_base_part.translation().x();
+      sj["y_m"] = g.T_base_part.translation().y();
+      sj["yaw_deg"] = rad2deg(std::atan2(g.T_base_part.linear()(1, 0), g.T_base_part.linear()(0, 0)));
+      sj["move_mm"] = 1e3 * g.move_m;
+      sj["turn_deg"] = rad2deg(g.turn_rad);
+    } else {
+      sj["reason"] = g.reason;
+    }
+    j["placement_suggestion"] = sj;
+  }
+  if (run.weldability) {
+    const WeldabilityMap& m = *run.weldability;
+    j["weldability_map"] = {{"grid_m", m.grid_m},
+                            {"yaw_step_deg", rad2deg(m.yaw_step_rad)},
+                            {"welds", m.count(PlacementKind::kWelds)},
+                            {"out_of_reach", m.count(PlacementKind::kOutOfReach)},
+                            {"collides", m.count(PlacementKind::kCollides)},
+                            {"no_room", m.count(PlacementKind::kNoRoom)},
+                            {"seconds", m.seconds},
+                            {"picture", "weldability.png"}};
+  }
   j["stage_seconds"] = nlohmann::json::object();
   for (const auto& [name, s] : run.stage_seconds) j["stage_seconds"][name] = s;
   return j;
@@ -321,6 +351,36 @@ double write_report(const RunRecord& run, const std::string& dir, bool renders) 
     h << "<ul>";
     for (const auto& r : run.reasons) h << "<li class=\"bad\">" << html_escape(r) << "</li>";
     h << "</ul>\n";
+  }
+  if (run.suggestion) {
+    h << "<h2>Where to put the part</h2>\n<p class=\"guidance\">"
+      << html_escape(run.suggestion->found
+                         ? run.suggestion->instruction + " — there it plans and replays clean in the twin."
+                         : "No placement found: " + run.suggestion->reason)
+      << "</p>\n";
+  }
+  if (run.weldability) {
+    std::vector<MapMark> marks;
+    if (run.pose && run.pose->found) {
+      const Iso3& T = run.pose->T_base_part;
+      marks.push_back(footprint_mark(*run.part, T.translation().x(), T.translation().y(),
+                                     std::atan2(T.linear()(1, 0), T.linear()(0, 0)), {30, 60, 200}));
+    }
+    if (run.suggestion && run.suggestion->found) {
+      const Iso3& T = run.suggestion->T_base_part;
+      marks.push_back(footprint_mark(*run.part, T.translation().x(), T.translation().y(),
+                                     std::atan2(T.linear()(1, 0), T.linear()(0, 0)), {150, 20, 170}));
+    }
+    weldability_picture(*run.weldability, marks).write_png(dir + "/weldability.png");
+    h << html::figure(
+        dir, "weldability.png", "Where this part welds on the table",
+        "Seen from above, the robot (black) at the bottom edge. Green: the part welds there at that share "
+        "of " +
+            std::to_string(run.weldability->nyaw) +
+            " yaws (every seam's stations reached clear of the cell, " + num(1e3 * run.weldability->grid_m) +
+            " mm grid); red: the arm collides; orange: out of reach; " +
+            "grey: no room for the part and its clamps. Blue outline: where the part was found; purple: " +
+            "where to put it. The dot marks the same corner of the part in both.");
   }
   h << "<h2>Where the weld lands</h2>\n";
   if (run.replay) {

@@ -13,7 +13,9 @@
 #include "planning/weld_planner.hpp"
 #include "sim/cell_layout.hpp"
 #include "sim/mujoco_world.hpp"
+#include "sim/placement_guidance.hpp"
 #include "sim/replay.hpp"
+#include "sim/weldability.hpp"
 
 namespace weldtwin {
 
@@ -29,6 +31,10 @@ struct RunRecord {
   const WeldPlan* plan = nullptr;
   std::string plan_sha256;  ///< of DIR/plan.json as written: the plan the robot gate lets through
   const ReplayResult* replay = nullptr;  ///< null when there was nothing to replay
+  /// When the part cannot be welded where it was found: where to put it (null: not asked), and the map of
+  /// where it welds on the table (null: not drawn), with the part where it was found and the suggestion.
+  const PlacementSuggestion* suggestion = nullptr;
+  const WeldabilityMap* weldability = nullptr;
   std::vector<std::pair<std::string, double>> stage_seconds;
   bool passed = false;
   std::vector<std::string> reasons;  ///< why it failed (empty when passed)

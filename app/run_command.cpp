@@ -22,7 +22,9 @@
 #include "perception/mesh_io.hpp"
 #include "perception/scan_assembly.hpp"
 #include "sim/collision_check.hpp"
+#include "sim/placement_guidance.hpp"
 #include "sim/sweep_sim.hpp"
+#include "sim/weldability.hpp"
 
 namespace weldtwin {
 namespace {
@@ -232,6 +234,43 @@ int run_job(const RunCommand& cmd) {
     std::snprintf(buf, sizeof buf, "skipped: nothing to replay (%.2f s)", stage_done("replay"));
   }
   say(step(4, "replay"), buf);
+
+  // Where to put the part when it does not weld where it lies: the nearest placement that plans and replays
+  // clean in the twin, and (with the report's pictures) the map of where it welds on the table.
+  PlacementSuggestion suggestion;
+  WeldabilityMap weldability;
+  if (cmd.guidance && pose.found && (!plan.ok() || (run.replay && !replay.passed()))) {
+    CellLayout now = layout;
+    now.T_base_part = pose.T_base_part;  // where it was found; the clamps and clutter as the cell has them
+    GuidanceSetting guide;
+    guide.plan = plan_setting;
+    guide.plan.collision = nullptr;
+    guide.plan.start.reset();
+    suggestion = suggest_placement(cell, part, robot, mesh, now, z_symmetry_order(mesh), guide);
+    run.suggestion = &suggestion;
+    std::snprintf(buf, sizeof buf, "%s (%d placements screened, %d planned and replayed; %.1f s)",
+                  suggestion.found ? (suggestion.instruction + ": there it plans and replays clean").c_str()
+                                   : ("no placement found: " + suggestion.reason).c_str(),
+                  suggestion.screened, suggestion.verified, suggestion.seconds);
+    say(step(4, "where to put it"), buf);
+    if (cmd.renders) {
+      CellSpec map_cell = cell;
+      map_cell.clamp_sites.clear();
+      for (const ClampPlacement& c : layout.clamps) map_cell.clamp_sites.push_back(c.site);
+      map_cell.clutter = layout.clutter;
+      ReachSetting reach;
+      reach.grid_m = 0.04;
+      reach.yaw_step_rad = deg2rad(30);
+      reach.plan = guide.plan;
+      weldability = weldability_map(map_cell, part, robot, mesh, reach);
+      run.weldability = &weldability;
+      std::snprintf(buf, sizeof buf, "weldability map: %zu of %zu placements with room weld (%.1f s)",
+                    weldability.count(PlacementKind::kWelds),
+                    weldability.placements.size() - weldability.count(PlacementKind::kNoRoom),
+                    weldability.seconds);
+      say(step(4, "where to put it"), buf);
+    }
+  }
 
   // Verdict.
   if (!pose.found) run.reasons.push_back("part not found: " + pose.reason);

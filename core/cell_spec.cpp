@@ -177,6 +177,11 @@ CellSpec parse(const std::string& file) {
     pl.max_radius_m = yaml::maybe_length(p, "max_radius", file).value_or(pl.max_radius_m);
     pl.max_bearing_rad = yaml::maybe_angle(p, "max_bearing", file).value_or(pl.max_bearing_rad);
     pl.base_keepout_m = yaml::maybe_length(p, "base_keepout", file).value_or(pl.base_keepout_m);
+    if (p["area"]) {
+      const auto area = placement_area_from(yaml::text(p, "area", file));
+      if (!area) throw input_error(file, "placement: area must be 'ring' or 'table'");
+      pl.area = *area;
+    }
     if (pl.min_radius_m >= pl.max_radius_m)
       throw input_error(file, "placement: min_radius must be below max_radius");
   }
@@ -237,6 +242,16 @@ CellSpec parse(const std::string& file) {
 }
 
 }  // namespace
+
+std::optional<PlacementSpec::Area> placement_area_from(const std::string& name) {
+  if (name == "ring") return PlacementSpec::Area::kRing;
+  if (name == "table") return PlacementSpec::Area::kTable;
+  return std::nullopt;
+}
+
+const char* placement_area_name(PlacementSpec::Area area) {
+  return area == PlacementSpec::Area::kTable ? "table" : "ring";
+}
 
 CellSpec CellSpec::load(const std::string& yaml_path) {
   try {

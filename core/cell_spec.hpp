@@ -19,13 +19,20 @@ struct TableSpec {
   double top_z_m = 0.0;
 };
 
-/// Where parts may go: their seams within a ring around the robot base, in front of it.
+/// Where parts may go: their seams within a ring around the robot base, in front of it (the ring the arm
+/// welds in), or anywhere on the table top clear of the robot base (where an operator may clamp a part).
 struct PlacementSpec {
+  enum class Area { kRing, kTable };
+  Area area = Area::kRing;                 ///< kTable: the radii and bearing below are not asked
   double min_radius_m = 0.40;              ///< closest seam point to the base axis
   double max_radius_m = 0.56;              ///< farthest seam point from the base axis
   double max_bearing_rad = deg2rad(75.0);  ///< |atan2(y, x)| of the part origin
   double base_keepout_m = 0.16;            ///< no part or clamp within this radius of the base axis
 };
+
+/// "ring" / "table"; nullopt for any other name.
+std::optional<PlacementSpec::Area> placement_area_from(const std::string& name);
+const char* placement_area_name(PlacementSpec::Area area);
 
 struct PartPose {
   double x_m = 0.0, y_m = 0.0, z_m = 0.0, yaw_rad = 0.0;

@@ -459,11 +459,28 @@ class Builder {
 // How welding one seam from where the plan stands went.
 struct SeamAttempt {
   bool ok = false;
-  std::string refusal;        ///< why no way of it works ("" when one does)
+  std::string refusal;  ///< why no way of it works ("" when one does)
+  PlanFailure kind = PlanFailure::kNone;
   bool moves_failed = false;  ///< some way of it was blocked on its moves (elsewhere it may not be)
 };
 
 }  // namespace
+
+const char* plan_failure_name(PlanFailure failure) {
+  switch (failure) {
+    case PlanFailure::kNone:
+      return "none";
+    case PlanFailure::kOutOfReach:
+      return "out_of_reach";
+    case PlanFailure::kCollides:
+      return "collides";
+    case PlanFailure::kBlockedMove:
+      return "blocked_move";
+    case PlanFailure::kJointLimits:
+      return "joint_limits";
+  }
+  return "?";
+}
 
 const char* phase_name(Phase phase) {
   switch (phase) {
@@ -504,13 +521,15 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
     // is too short to blend. Returns why it cannot be welded so ("" when it can).
     std::vector<std::pair<double, double>> pieces;
     std::vector<Choice> choices;
+    bool split_collided = false;  // the last split that failed: where the arm reached, it collided
     auto split = [&](const SeamGeometry& g) -> std::string {
       const Seam& seam = *g.seam;
       pieces.clear();
       choices.clear();
       double s0 = 0.0;
       while (s0 < g.length - 1e-9) {
-        Choice c = b.choose(g, s0, g.length, seam.torch_roll_rad, branch);
+        // Only feasibility is asked (stations only): the first roll and branch that works will do.
+        Choice c = b.choose(g, s0, g.length, seam.torch_roll_rad, branch, setting.stations_only);
         double s1 = g.length;
         if (!c.ok && seam.kind == Seam::Kind::kArc && !seam.torch_roll_rad) {
           // The longest stretch from s0 that some roll can weld, by bisection on its end.
@@ -524,17 +543,18 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
             }
           }
           s1 = lo;
-          c = b.choose(g, s0, s1, seam.torch_roll_rad, branch);
+          c = b.choose(g, s0, s1, seam.torch_roll_rad, branch, setting.stations_only);
           // Leave no stub too short to blend at the weld speed: end this piece earlier instead.
           constexpr double kMinPiece = 0.025;
           if (g.length - s1 < kMinPiece && g.length - kMinPiece - s0 >= 0.01) {
             s1 = g.length - kMinPiece;
-            c = b.choose(g, s0, s1, seam.torch_roll_rad, branch);
+            c = b.choose(g, s0, s1, seam.torch_roll_rad, branch, setting.stations_only);
           }
           if (s1 - s0 < 0.01) c.ok = false;
         }
         if (!c.ok) {
           const std::string hit = b.main_collision();
+          split_collided = !hit.empty();
           return std::string(seam.torch_roll_rad ? "unreachable with its torch roll"
                                                  : "unreachable with any torch roll") +
                  (hit.empty() ? " (out of reach, or closer than the set margins to the joint limits or to a"
@@ -545,7 +565,7 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
         choices.push_back(c);
         s0 = s1;
       }
-      for (size_t n = pieces.size(); n > 1 && n <= pieces.size() + 1; ++n) {
+      for (size_t n = pieces.size(); !setting.stations_only && n > 1 && n <= pieces.size() + 1; ++n) {
         std::vector<std::pair<double, double>> equal;
         std::vector<Choice> equal_choices;
         for (size_t k = 0; k < n; ++k) {
@@ -667,6 +687,7 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
     const size_t notes_before = plan.notes.size();
     std::string nominal_problem;        // what ruled out the first way
     bool nominal_split_failed = false;  // ... when splitting it (else on a move, which the problem names)
+    PlanFailure nominal_kind = PlanFailure::kNone;
     bool welded = false;
     bool moves_failed[2] = {false, false};  // per direction: forward, reversed
     int tried = 0;
@@ -697,7 +718,7 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
           for (size_t k = 1; k < pieces.size(); ++k) note << ' ' << 1000.0 * pieces[k].first << " mm";
           plan.notes.push_back(note.str());
         }
-        if (weld_pieces(g)) {
+        if (setting.stations_only || weld_pieces(g)) {
           PlannedSeam ps;
           ps.name = way.seam.name;
           ps.start_base = g.point(0.0);
@@ -724,6 +745,9 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
       if (nominal_problem.empty()) {
         nominal_problem = problem;
         nominal_split_failed = split_failed;
+        nominal_kind = !split_failed    ? PlanFailure::kBlockedMove
+                       : split_collided ? PlanFailure::kCollides
+                                        : PlanFailure::kOutOfReach;
       }
     }
     if (!welded) {
@@ -734,9 +758,9 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
                (tried_angles && tried_reversed ? ", " : "") + (tried_reversed ? "both directions" : "") + ")";
       }
       return {false, (nominal_split_failed ? what + ": " : std::string()) + nominal_problem + also,
-              moves_failed[0] || moves_failed[1]};
+              nominal_kind, moves_failed[0] || moves_failed[1]};
     }
-    return {true, "", false};
+    return {true, "", PlanFailure::kNone, false};
   };
 
   // The seams in the spec's order. When one's moves are blocked from where the previous one ended, the
@@ -759,6 +783,7 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
     }
     if (chosen == left.size()) {
       plan.problems.push_back(refused->refusal);
+      plan.failure = refused->kind;
       break;
     }
     if (chosen > 0)
@@ -767,6 +792,7 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
                            ")");
     left.erase(left.begin() + static_cast<long>(chosen));
   }
+  if (setting.stations_only) return plan;
   if (plan.problems.empty()) {
     if (at_corner) {
       const Iso3 here = plan.samples.back().T_base_tcp;
@@ -779,7 +805,12 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
     if (plan.problems.empty())
       b.checked([&] { return b.transit(setting.home, "transit home"); }, false, "transit home");
   }
-  if (plan.problems.empty()) plan.problems = check_joint_limits(plan.samples, robot, setting.sample_hz);
+  if (plan.problems.empty()) {
+    plan.problems = check_joint_limits(plan.samples, robot, setting.sample_hz);
+    if (!plan.problems.empty()) plan.failure = PlanFailure::kJointLimits;
+  } else if (plan.failure == PlanFailure::kNone) {
+    plan.failure = PlanFailure::kBlockedMove;  // the final departure or the transit home
+  }
   return plan;
 }
 

@@ -47,6 +47,11 @@ struct PlanSetting {
   /// is blocked is taken back and the seam tried from its other end, and then the seams still to weld are
   /// tried before it. Off: the spec's angles, direction and order only.
   bool search_weld_window = true;
+  /// Only ask whether every seam has a way (within the same search) whose stations, approach and departure
+  /// poses the arm reaches clear of the cell: no transits, no timing, no samples beyond the first. A quick
+  /// necessary condition for a plan, for maps of where a part can be welded; `plan_welds` says which seams
+  /// fail and why, as always.
+  bool stations_only = false;
 };
 
 enum class Phase { kTransit, kApproach, kWeld, kCorner, kDeparture };
@@ -71,12 +76,23 @@ struct PlannedSeam {
   bool reversed = false;                                ///< welded from the spec's end to its start
 };
 
+/// Why a plan failed, beside its human reason (`WeldPlan::problems`).
+enum class PlanFailure {
+  kNone,
+  kOutOfReach,   ///< a seam no way of which the arm reaches within its limits and margins
+  kCollides,     ///< a seam the arm reaches only where it collides with the cell
+  kBlockedMove,  ///< a seam whose stations are clear, but no transit, approach or departure to them is
+  kJointLimits,  ///< the trajectory exceeds a joint's velocity or acceleration limit
+};
+const char* plan_failure_name(PlanFailure failure);
+
 struct WeldPlan {
   Iso3 T_flange_tcp = Iso3::Identity();
   std::vector<PlannedSeam> seams;
   std::vector<PlanSample> samples;
-  std::vector<std::string> notes;     ///< e.g. re-grips
-  std::vector<std::string> problems;  ///< "seam 'x': reason"; empty when the plan is good
+  std::vector<std::string> notes;            ///< e.g. re-grips
+  std::vector<std::string> problems;         ///< "seam 'x': reason"; empty when the plan is good
+  PlanFailure failure = PlanFailure::kNone;  ///< the kind of the first problem
   double duration_s() const { return samples.empty() ? 0.0 : samples.back().t_s; }
   bool ok() const { return problems.empty(); }
 };

@@ -92,14 +92,15 @@ std::string part_problem(const CellSpec& cell, const PartSpec& part, const Iso3&
   if ((T.linear().col(2) - Vec3::UnitZ()).norm() > 1e-6)
     return "part must stand upright on the table (yaw only)";
   const PlacementSpec& pl = cell.placement;
+  const bool ring = pl.area == PlacementSpec::Area::kRing;
   const double bearing = std::atan2(T.translation().y(), T.translation().x());
-  if (std::abs(bearing) > pl.max_bearing_rad + 1e-9) {
+  if (ring && std::abs(bearing) > pl.max_bearing_rad + 1e-9) {
     why << "part is out of reach: bearing " << rad2deg(bearing) << " deg exceeds "
         << rad2deg(pl.max_bearing_rad);
     return why.str();
   }
   for (const Seam& s : part.seams) {
-    for (int k = 0; k <= 16; ++k) {
+    for (int k = 0; ring && k <= 16; ++k) {
       const double r = xy(T * s.point_at(k / 16.0)).norm();
       if (r > pl.max_radius_m + 1e-9 || r < pl.min_radius_m - 1e-9) {
         why << "part is out of reach: seam '" << s.name << "' passes " << r
@@ -159,21 +160,27 @@ std::string layout_problem(const CellSpec& cell, const PartSpec& part, const Cel
   return "";
 }
 
+CellLayout layout_at(const CellSpec& cell, const PartSpec& part, const Iso3& T_base_part) {
+  CellLayout layout;
+  layout.T_base_part = T_base_part;
+  for (int site : cell.clamp_sites) {
+    if (site < 0 || site >= static_cast<int>(part.clamp_sites.size()))
+      throw input_error(cell.source, "clamp site " + std::to_string(site) + " does not exist on part '" +
+                                         part.name + "' (it has " + std::to_string(part.clamp_sites.size()) +
+                                         ")");
+    layout.clamps.push_back(place_clamp(part, layout.T_base_part, site));
+  }
+  layout.clutter = cell.clutter;
+  return layout;
+}
+
 CellLayout make_layout(const CellSpec& cell, const PartSpec& part, std::optional<uint64_t> seed) {
   CellLayout layout;
   if (!seed) {
     if (!cell.part_pose)
       throw input_error(cell.source, "part has no pose (x_m, y_m): give one or pass --seed");
     const PartPose& p = *cell.part_pose;
-    layout.T_base_part = planar_pose(p.x_m, p.y_m, cell.table.top_z_m + p.z_m, p.yaw_rad);
-    for (int site : cell.clamp_sites) {
-      if (site < 0 || site >= static_cast<int>(part.clamp_sites.size()))
-        throw input_error(cell.source, "clamp site " + std::to_string(site) + " does not exist on part '" +
-                                           part.name + "' (it has " +
-                                           std::to_string(part.clamp_sites.size()) + ")");
-      layout.clamps.push_back(place_clamp(part, layout.T_base_part, site));
-    }
-    layout.clutter = cell.clutter;
+    layout = layout_at(cell, part, planar_pose(p.x_m, p.y_m, cell.table.top_z_m + p.z_m, p.yaw_rad));
     if (std::string why = layout_problem(cell, part, layout); !why.empty())
       throw input_error(cell.source, why);
     return layout;
@@ -188,13 +195,20 @@ CellLayout make_layout(const CellSpec& cell, const PartSpec& part, std::optional
   const int min_clamps = std::min<int>(2, static_cast<int>(sites.size()));
   bool placed = false;
   for (int attempt = 0; attempt < 20000 && !placed; ++attempt) {
-    // Uniform over the ring sector by area.
-    const double r =
-        std::sqrt(pl.min_radius_m * pl.min_radius_m +
-                  u01(rng) * (pl.max_radius_m * pl.max_radius_m - pl.min_radius_m * pl.min_radius_m));
-    const double bearing = (2.0 * u01(rng) - 1.0) * pl.max_bearing_rad;
+    Vec2 at;
+    if (pl.area == PlacementSpec::Area::kRing) {  // uniform over the ring sector by area
+      const double r =
+          std::sqrt(pl.min_radius_m * pl.min_radius_m +
+                    u01(rng) * (pl.max_radius_m * pl.max_radius_m - pl.min_radius_m * pl.min_radius_m));
+      const double bearing = (2.0 * u01(rng) - 1.0) * pl.max_bearing_rad;
+      at = Vec2(r * std::cos(bearing), r * std::sin(bearing));
+    } else {  // uniform over the table top
+      const TableSpec& t = cell.table;
+      at = Vec2(t.x_min_m + (t.x_max_m - t.x_min_m) * u01(rng),
+                t.y_min_m + (t.y_max_m - t.y_min_m) * u01(rng));
+    }
     const double yaw = 2.0 * kPi * u01(rng);
-    layout.T_base_part = planar_pose(r * std::cos(bearing), r * std::sin(bearing), cell.table.top_z_m, yaw);
+    layout.T_base_part = planar_pose(at.x(), at.y(), cell.table.top_z_m, yaw);
     if (!part_problem(cell, part, layout.T_base_part).empty()) continue;
     // 2-4 clamps on sites that fit (on the table, clear of each other and the robot); else another pose.
     for (size_t i = 0; i < sites.size(); ++i) sites[i] = static_cast<int>(i);

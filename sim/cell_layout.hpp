@@ -32,6 +32,10 @@ struct CellLayout {
 /// intersecting the table, clamp off the table, overlaps).
 CellLayout make_layout(const CellSpec& cell, const PartSpec& part, std::optional<uint64_t> seed);
 
+/// The cell's layout with the part at T_base_part: the cell's clamp sites, its clutter (not checked: see
+/// layout_problem). Throws InputError for a clamp site the part does not have.
+CellLayout layout_at(const CellSpec& cell, const PartSpec& part, const Iso3& T_base_part);
+
 /// The reason a layout is impossible, or "" when it is fine.
 std::string layout_problem(const CellSpec& cell, const PartSpec& part, const CellLayout& layout);
 

@@ -136,6 +136,8 @@ struct PartClearance::Impl {
   };
   std::vector<GeomChunks> geoms;
   double range = 0.05;
+  Iso3 T_base_mesh_part = Iso3::Identity();  ///< where the part stood when the mesh was put in the base frame
+  std::optional<Iso3> T_mesh_base;           ///< set when the part was moved since (set_part_pose)
   // The part's box, base frame: a sphere farther from it than the nearest point found is passed over.
   Eigen::AlignedBox3d box;
 };
@@ -149,6 +151,7 @@ PartClearance::PartClearance(const MujocoWorld& world, const Mesh& part_mesh, co
   impl_->rays = std::make_unique<MeshRays>(mesh_base);
   for (const Vec3& v : mesh_base.vertices) impl_->box.extend(v);
   impl_->range = range_m;
+  impl_->T_base_mesh_part = T_base_part;
   const mjModel* m = world.model();
   for (int g = 0; g < m->ngeom; ++g)
     if (world.geom_label(g) == Label::kRobot && measured_for_clearance(m, g)) {
@@ -164,8 +167,18 @@ PartClearance::PartClearance(const MujocoWorld& world, const Mesh& part_mesh, co
     }
 }
 
+void PartClearance::set_part_pose(const Iso3& T_base_part) {
+  impl_->T_mesh_base = impl_->T_base_mesh_part * T_base_part.inverse();
+}
+
 double PartClearance::clearance(const mjData* d, std::string* geom, Hint* hint) const {
   const MeshRays& rays = *impl_->rays;
+  // A robot geom's point in the frame the mesh was built in (the base frame, unless the part was moved).
+  const std::optional<Iso3>& T_mesh_base = impl_->T_mesh_base;
+  const auto geom_to_base = [&](const mjData* data, int g, const Vec3& p) {
+    const Vec3 b = weldtwin::geom_to_base(data, g, p);
+    return T_mesh_base ? Vec3(*T_mesh_base * b) : b;
+  };
   double best = impl_->range;
   int best_geom = -1;
   Vec3 best_point = Vec3::Zero();
@@ -246,6 +259,21 @@ void CollisionChecker::add_part(const Mesh& part_mesh, const Iso3& T_base_part, 
   state_->part.emplace(*state_->world, part_mesh, T_base_part, 2 * margin_m + 0.005);
   state_->part_margin = margin_m;
   state_->weld_margin = weld_margin_m;
+}
+
+void CollisionChecker::place(const CellLayout& layout) {
+  mjModel* m = state_->model.get();
+  const auto set_pose = [&](const std::string& body, const Iso3& T) {
+    const int b = state_->world->body(body);
+    const Eigen::Quaterniond q(T.linear());
+    for (int k = 0; k < 3; ++k) m->body_pos[3 * b + k] = T.translation()[k];
+    m->body_quat[4 * b] = q.w(), m->body_quat[4 * b + 1] = q.x(), m->body_quat[4 * b + 2] = q.y(),
+                     m->body_quat[4 * b + 3] = q.z();
+  };
+  set_pose("part", layout.T_base_part);
+  for (size_t i = 0; i < layout.clamps.size(); ++i)
+    set_pose("clamp" + std::to_string(i), layout.clamps[i].T_base_clamp);
+  if (state_->part) state_->part->set_part_pose(layout.T_base_part);
 }
 
 std::string CollisionChecker::operator()(const JointVector& q, bool welding) const {

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "perception/mesh_io.hpp"
+#include "sim/cell_layout.hpp"
 #include "sim/mujoco_world.hpp"
 
 namespace weldtwin {
@@ -24,6 +25,8 @@ class PartClearance {
     int chunk = -1, point = -1;
   };
   double clearance(const mjData* d, std::string* geom = nullptr, Hint* hint = nullptr) const;
+  /// The part now stands at T_base_part (the mesh stays as built; queries are moved). Copies share it.
+  void set_part_pose(const Iso3& T_base_part);
 
  private:
   struct Impl;
@@ -47,6 +50,11 @@ class CollisionChecker {
   /// be close to the joint, but not on the part).
   void add_part(const Mesh& part_mesh, const Iso3& T_base_part, double margin_m = 0.0015,
                 double weld_margin_m = 0.00075);
+
+  /// Moves the part and its clamps to another layout of the same cell (as many clamps as the world was
+  /// built with; the clutter stays): one checker answers for many placements without building the world
+  /// again. Copies share it.
+  void place(const CellLayout& layout);
 
   /// "" when the arm at q is clear, else "ROBOT_GEOM with OTHER_GEOM". Not thread-safe (one mjData); copies
   /// share it.

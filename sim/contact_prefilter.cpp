@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <mutex>
+#include <unordered_map>
 
 // MuJoCo's table of pair-wise collision functions, indexed by the two geom types (the smaller first).
 // Exported by libmujoco (MJAPI in its collision driver) though not declared in the public headers.
@@ -21,6 +22,34 @@ struct Frame {
   double half[3];   // half sizes along the axes (a cylinder's box: radius, radius, half-length)
 };
 
+// The box round a mesh's vertices in its frame, computed once per thread and mesh: the vertices are
+// looked up by address, and the entry is trusted only while their count and first and last vertex match
+// (another model may later take the same memory).
+struct MeshBox {
+  int count = 0;
+  float first[3] = {0, 0, 0}, last[3] = {0, 0, 0};
+  double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+};
+
+const MeshBox& mesh_box(const float* v, int count) {
+  thread_local std::unordered_map<const float*, MeshBox> boxes;
+  MeshBox& box = boxes[v];
+  const float* end = v + 3 * (count - 1);
+  if (count > 0 && box.count == count && std::equal(v, v + 3, box.first) &&
+      std::equal(end, end + 3, box.last))
+    return box;
+  box = MeshBox();
+  box.count = count;
+  if (count <= 0) return box;
+  std::copy(v, v + 3, box.first);
+  std::copy(end, end + 3, box.last);
+  for (int i = 0; i < count; ++i)
+    for (int k = 0; k < 3; ++k)
+      box.lo[k] = std::min(box.lo[k], double(v[3 * i + k])),
+      box.hi[k] = std::max(box.hi[k], double(v[3 * i + k]));
+  return box;
+}
+
 Frame frame_of(const mjModel* m, const mjData* d, int g) {
   Frame f;
   const mjtNum* x = d->geom_xmat + 9 * g;
@@ -31,11 +60,8 @@ Frame frame_of(const mjModel* m, const mjData* d, int g) {
   if (m->geom_type[g] == mjGEOM_MESH) {
     // The box round the mesh's vertices in the geom frame (MuJoCo keeps them so), its centre off the origin.
     const int mesh = m->geom_dataid[g];
-    const float* v = m->mesh_vert + 3 * m->mesh_vertadr[mesh];
-    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
-    for (int i = 0; i < m->mesh_vertnum[mesh]; ++i)
-      for (int k = 0; k < 3; ++k)
-        lo[k] = std::min(lo[k], double(v[3 * i + k])), hi[k] = std::max(hi[k], double(v[3 * i + k]));
+    const MeshBox& box = mesh_box(m->mesh_vert + 3 * m->mesh_vertadr[mesh], m->mesh_vertnum[mesh]);
+    const double *lo = box.lo, *hi = box.hi;
     for (int k = 0; k < 3; ++k) {
       f.half[k] = 0.5 * (hi[k] - lo[k]) + 1e-7;  // float vertices
       const double mid = 0.5 * (hi[k] + lo[k]);
