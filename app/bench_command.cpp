@@ -39,6 +39,7 @@
 #include "planning/weld_planner.hpp"
 #include "sim/cell_layout.hpp"
 #include "sim/collision_check.hpp"
+#include "sim/placement_guidance.hpp"
 #include "sim/replay.hpp"
 #include "sim/sweep_sim.hpp"
 #include "sim/twin_calibration.hpp"
@@ -338,6 +339,40 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d,
   }
   j["seams_under_1mm"] = seams_under_1mm;
   set_verdict(j, reasons);
+  if (cmd.guidance && !reasons.empty() && cmd.replay && ours.found && ours_error.seam_max_m <= 1e-3) {
+    // Where the operator would be told to put it, and the trial again with the part there (the same
+    // clamp sites, the clutter where it was, the same LiDAR noise).
+    GuidanceSetting guide;
+    guide.plan.search_weld_window = cmd.weld_window;
+    guide.replay.threads = 1;
+    guide.replay.timestep_s = cmd.replay_step_s;
+    CellLayout now = d.layout;
+    now.T_base_part = ours.T_base_part;
+    const PlacementSuggestion s = suggest_placement(c.cell, c.part, c.robot, c.mesh, now, c.symmetry, guide);
+    json g = {{"found", s.found},
+              {"screened", s.screened},
+              {"planned_and_replayed", s.verified},
+              {"seconds", rounded(s.seconds, 1e-3)}};
+    if (s.found) {
+      g["instruction"] = s.instruction;
+      g["move_mm"] = rounded(1e3 * s.move_m, 1e-3);
+      g["turn_deg"] = rounded(rad2deg(s.turn_rad), 1e-3);
+      Draw moved = d;
+      moved.layout = layout_at(cell_as_laid_out(c.cell, d.layout), c.part, s.T_base_part);
+      BenchCommand again = cmd;
+      again.guidance = false;
+      again.paper = false;
+      again.keep_failed.clear();
+      const json tried = run_trial(again, c, moved, calibration);
+      g["tried"] = {{"verdict", tried.value("verdict", "fail")},
+                    {"seams_under_1mm", tried.value("seams_under_1mm", false)}};
+      if (tried.contains("cause")) g["tried"]["cause"] = tried["cause"];
+    } else {
+      g["reason"] = s.reason;
+    }
+    j["guidance"] = g;
+    lap("guidance");
+  }
   if (!reasons.empty() && !cmd.keep_failed.empty()) {
     // What it takes to look again: `weldtwin replay DIR/plan.json CELL --seed <draw.layout_seed>` shows the
     // replay with pictures; `weldtwin localize --scan DIR/scan.pcd` the localization.

@@ -35,7 +35,9 @@ struct BenchCommand {
   std::string sweep;               ///< sweep program for every cell ("" = each cell's own)
   std::string robot;               ///< robot file (arm and tooling) for every cell ("" = each cell's own)
   std::optional<PlacementSpec::Area>
-      placement;           ///< where parts are drawn in every cell (unset: each cell's own)
+      placement;  ///< where parts are drawn in every cell (unset: each cell's own)
+  bool guidance =
+      false;  ///< a failed trial whose part was found right: where to put it, tried as a trial of its own
   bool viewpoints = true;  ///< localize with every point's viewpoint (off: as other tools' clouds)
   bool calibrate =
       false;  ///< find each trial's mount from a sweep of the calibration cell first (as weldtwin calibrate)

@@ -111,6 +111,7 @@ json summarise(const std::map<uint64_t, json>& trials, uint64_t seed) {
   struct Group {
     size_t n = 0, ours_under = 0, ours_success = 0, ours_found = 0, ours_false = 0, paper_under = 0,
            paper_success = 0, paper_n = 0, welded = 0, planned = 0, replayed = 0;
+    size_t guided = 0, suggested = 0, suggestion_welded = 0;  // failures with the part found right
     std::vector<double> ours_mm, paper_mm, ours_deg, paper_deg;
   };
   std::map<std::string, Group> groups;  // "" = all
@@ -143,6 +144,12 @@ json summarise(const std::map<uint64_t, json>& trials, uint64_t seed) {
       if (flag(j, "plan", "ok")) ++g.planned;
       if (j.contains("replay")) ++g.replayed;
       if (j.value("verdict", "") == "pass") ++g.welded;
+      if (j.contains("guidance")) {
+        ++g.guided;
+        if (j["guidance"].value("found", false)) ++g.suggested;
+        if (j["guidance"].contains("tried") && j["guidance"]["tried"].value("verdict", "") == "pass")
+          ++g.suggestion_welded;
+      }
     }
     if (j.contains("calibration")) {
       calibration_mm.push_back(j["calibration"].value("translation_error_mm", 0.0));
@@ -181,6 +188,10 @@ json summarise(const std::map<uint64_t, json>& trials, uint64_t seed) {
     }
     p["planned"] = rate(g.planned, g.n);
     p["welded"] = rate(g.welded, g.n);
+    if (g.guided > 0)
+      p["guidance"] = {{"failures_found_right", g.guided},
+                       {"suggested", rate(g.suggested, g.guided)},
+                       {"suggestion_welded", rate(g.suggestion_welded, g.guided)}};
     if (key.empty())
       s["overall"] = p;
     else
@@ -316,6 +327,24 @@ int run_bench_report(const BenchReportCommand& cmd) {
        "too. "
        "<b>Localization success</b>: the issue's bar, 1 mm and 0.5 deg. <b>False accepts</b>: found, but a "
        "seam more than 1 mm off.</p>\n";
+  // What a shop asks first: how many parts were welded, per part; then why not; then where to put them.
+  h << "<h2>Welded end to end</h2>\n<p>Found, planned and replayed clean with the torch within 1 mm of the "
+       "true seam.</p>\n<table><tr><th>part</th><th>trials</th><th>welded</th><th>failed though found within "
+       "1 mm</th><th>a placement suggested</th><th>the suggestion welded (the whole trial again)</th></tr>\n";
+  auto weld_row = [&](const std::string& name, const json& p) {
+    const bool guided = p.contains("guidance");
+    h << "<tr><td>" << html::escape(name) << "</td><td>" << p["trials"].get<size_t>() << "</td><td>"
+      << rate_cell(p["welded"]) << "</td><td>"
+      << (guided ? std::to_string(p["guidance"]["failures_found_right"].get<size_t>()) : "-") << "</td><td>"
+      << (guided ? rate_cell(p["guidance"]["suggested"]) : "-") << "</td><td>"
+      << (guided ? rate_cell(p["guidance"]["suggestion_welded"]) : "-") << "</td></tr>\n";
+  };
+  if (s.contains("parts"))
+    for (const auto& [name, p] : s["parts"].items()) weld_row(name, p);
+  weld_row("all", all);
+  h << "</table>\n";
+  if (!all.contains("guidance"))
+    h << "<p>Placement guidance was not asked (<code>weldtwin bench --guidance</code>).</p>\n";
   h << "<h2>Success</h2>\n<table><tr><th>part</th><th>trials</th><th>ours: seams within 1 mm</th><th>paper: "
        "seams within 1 mm</th><th>ours: 1 mm and 0.5 deg</th><th>paper: 1 mm and 0.5 deg</th><th>ours: false "
        "accepts</th><th>planned</th><th>welded (replay passed)</th></tr>\n";

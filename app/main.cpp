@@ -193,6 +193,10 @@ int main(int argc, char** argv) {
                  "its front) or 'table' (anywhere on the table top where part and clamps fit, clear of the "
                  "robot base); default: each cell's own (the shipped cells: ring)")
       ->check(CLI::IsMember({"ring", "table"}));
+  bc->add_flag(
+      "--guidance", bench.guidance,
+      "for a trial that fails though the part was found within 1 mm: the placement weldtwin run would "
+      "suggest, then the whole trial again (sweep, localize, plan, replay) with the part moved there");
   bc->add_flag("!--no-viewpoints", bench.viewpoints,
                "localize without the points' viewpoints, as clouds from other tools come");
   double replay_step_ms = 5.0;

@@ -254,10 +254,7 @@ int run_job(const RunCommand& cmd) {
                   suggestion.screened, suggestion.verified, suggestion.seconds);
     say(step(4, "where to put it"), buf);
     if (cmd.renders) {
-      CellSpec map_cell = cell;
-      map_cell.clamp_sites.clear();
-      for (const ClampPlacement& c : layout.clamps) map_cell.clamp_sites.push_back(c.site);
-      map_cell.clutter = layout.clutter;
+      const CellSpec map_cell = cell_as_laid_out(cell, layout);
       ReachSetting reach;
       reach.grid_m = 0.04;
       reach.yaw_step_rad = deg2rad(30);

@@ -15,7 +15,8 @@ struct RunCommand {
   std::string out = "out/run";
   bool renders = true;  ///< OSMesa pictures and plots in the report (off: figures only, faster)
   bool quiet = false;
-  bool guidance = true;  ///< when the part does not weld where it lies, find where it would (and map the table)
+  bool guidance =
+      true;  ///< when the part does not weld where it lies, find where it would (and map the table)
   int threads = 0;
   std::string source = "sim";                           ///< sim | log:FILE | lidar:DEV (hw/scan_source.hpp)
   std::vector<double> mount_error_mm, mount_error_deg;  ///< twin only: the LiDAR's real mount is off by this

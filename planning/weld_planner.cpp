@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <optional>
 #include <sstream>
+#include <unordered_map>
 
 #include "planning/free_path.hpp"
 #include "planning/ik_aubo.hpp"
@@ -40,6 +43,20 @@ struct Choice {
   JointVector q_start = JointVector::Zero();  ///< at the approach's first pose
   Vec3 in_dir = Vec3::Zero(),
        out_dir = Vec3::Zero();  ///< unit, from the weld's start (end) to the approach (departure) pose
+};
+
+// A configuration and whether the arc is on, bit for bit, as a key.
+using ConfigKey = std::array<double, 7>;
+struct ConfigKeyHash {
+  size_t operator()(const ConfigKey& k) const {
+    uint64_t h = 1469598103934665603ull;  // FNV-1a over the bits
+    for (double v : k) {
+      uint64_t bits;
+      std::memcpy(&bits, &v, sizeof bits);
+      h = (h ^ bits) * 1099511628211ull;
+    }
+    return static_cast<size_t>(h);
+  }
 };
 
 Iso3 moved(const Iso3& T, const Vec3& direction, double distance) {
@@ -172,12 +189,23 @@ class Builder {
   bool collides(const std::vector<std::pair<JointVector, bool>>& qs) const {
     if (!set_.collision) return false;
     for (const auto& [q, welding] : qs) {
-      std::string hit = set_.collision(q, welding);
+      std::string hit = collision(q, welding);
       if (hit.empty()) continue;
       last_hit_ = hit;
       return true;
     }
     return false;
+  }
+
+  // The cell's answer for q, asked once per configuration: the stretches a seam's split tries share their
+  // first stations and approach poses exactly (the same pose, the same IK), so the answer is remembered.
+  std::string collision(const JointVector& q, bool welding) const {
+    const ConfigKey key{q[0], q[1], q[2], q[3], q[4], q[5], welding ? 1.0 : 0.0};
+    if (const auto it = answers_.find(key); it != answers_.end()) return it->second;
+    if (answers_.size() > 200000) answers_.clear();
+    std::string hit = set_.collision(q, welding);
+    answers_.emplace(key, hit);
+    return hit;
   }
 
   // A clear way to (or from) the weld pose `at` on branch `b`: back along the torch axis, or else straight
@@ -449,9 +477,10 @@ class Builder {
   JointVector q_;
   double dt_;
   double t_ = 0.0;
-  double slow_ = 1.0;                 ///< duration factor of the piece being tried (checked())
-  int branch_ = 0;                    ///< IK branch of the seam being welded
-  mutable std::string last_hit_;      ///< the latest collision found
+  double slow_ = 1.0;  ///< duration factor of the piece being tried (checked())
+  int branch_ = 0;     ///< IK branch of the seam being welded
+  mutable std::unordered_map<ConfigKey, std::string, ConfigKeyHash> answers_;  ///< the cell's, by q
+  mutable std::string last_hit_;                                               ///< the latest collision found
   mutable std::string rejected_hit_;  ///< what ruled out the best candidate since main_collision()
   mutable double rejected_margin_ = -1.0;
 };

@@ -276,11 +276,11 @@ void clamp_xml(std::ostringstream& os, int index, const ClampPlacement& c) {
   os << "</body>\n";
 }
 
-void clutter_xml(std::ostringstream& os, int index, const ClutterItem& item) {
+void clutter_xml(std::ostringstream& os, int index, const ClutterItem& item, double table_top_z_m) {
   const std::string n = "clutter" + std::to_string(index);
   XmlNumbers num(os);
   os << "<body name=\"" << n << "\"";
-  num.pose(planar_pose(item.x_m, item.y_m, 0.5 * item.size_m.z(), item.yaw_rad));
+  num.pose(planar_pose(item.x_m, item.y_m, table_top_z_m + 0.5 * item.size_m.z(), item.yaw_rad));
   os << ">\n";
   if (item.type == ClutterItem::Type::kBox) {
     box_geom(os, n + "_box", Vec3::Zero(), 0.5 * item.size_m, Mat3::Identity(), "0.55 0.45 0.3 1");
@@ -353,7 +353,7 @@ std::string compose_cell_mjcf(const CellSpec& cell, const PartSpec& part, const 
   bodies << ">\n<geom name=\"part\" type=\"mesh\" mesh=\"part_mesh\" rgba=\"0.62 0.64 0.68 1\"/>\n</body>\n";
   for (size_t i = 0; i < layout.clamps.size(); ++i) clamp_xml(bodies, static_cast<int>(i), layout.clamps[i]);
   for (size_t i = 0; i < layout.clutter.size(); ++i)
-    clutter_xml(bodies, static_cast<int>(i), layout.clutter[i]);
+    clutter_xml(bodies, static_cast<int>(i), layout.clutter[i], cell.table.top_z_m);
   env.insert(world_end, bodies.str());
 
   // The arm's servos (gains are set by whoever drives them: the replay tunes them to the arm's inertia).

@@ -27,6 +27,15 @@ struct Candidate {
 
 }  // namespace
 
+CellSpec cell_as_laid_out(const CellSpec& cell_file, const CellLayout& now) {
+  CellSpec cell = cell_file;
+  cell.placement.area = PlacementSpec::Area::kTable;
+  cell.clamp_sites.clear();
+  for (const ClampPlacement& c : now.clamps) cell.clamp_sites.push_back(c.site);
+  cell.clutter = now.clutter;
+  return cell;
+}
+
 std::string placement_instruction(const Iso3& from, const Iso3& to) {
   std::ostringstream os;
   const double turn_deg = rad2deg(wrapped(yaw_of(to) - yaw_of(from)));
@@ -63,12 +72,7 @@ PlacementSuggestion suggest_placement(const CellSpec& cell_file, const PartSpec&
     s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     return s;
   };
-  // The cell as it stands: the part's clamp sites and the clutter of `now`, placement anywhere on the table.
-  CellSpec cell = cell_file;
-  cell.placement.area = PlacementSpec::Area::kTable;
-  cell.clamp_sites.clear();
-  for (const ClampPlacement& c : now.clamps) cell.clamp_sites.push_back(c.site);
-  cell.clutter = now.clutter;
+  const CellSpec cell = cell_as_laid_out(cell_file, now);
 
   // Candidates nearest first. Turns that leave a symmetric part as it was are the same placement.
   const double x0 = now.T_base_part.translation().x(), y0 = now.T_base_part.translation().y();

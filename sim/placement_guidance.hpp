@@ -46,6 +46,10 @@ PlacementSuggestion suggest_placement(const CellSpec& cell, const PartSpec& part
                                       const Mesh& mesh, const CellLayout& now, int symmetry_order,
                                       const GuidanceSetting& setting = {});
 
+/// The cell as `now` lays it out — its clamp sites and clutter, the part anywhere on the table — so that
+/// layout_at(cell, part, T) is the part moved to T with the same clamps, and the clutter where it was.
+CellSpec cell_as_laid_out(const CellSpec& cell, const CellLayout& now);
+
 /// The line for the operator: the turn (clockwise or counter-clockwise seen from above, in whole degrees)
 /// and the move (towards or away from the robot, to the robot's left or right, in 5 mm steps).
 std::string placement_instruction(const Iso3& from, const Iso3& to);

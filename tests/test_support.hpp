@@ -22,6 +22,12 @@ inline std::string repo(const std::string& relative) {
   return std::string(WELDTWIN_SOURCE_DIR) + "/" + relative;
 }
 
+inline CellSpec load_with_robot(const std::string& cell_file, const std::string& robot_file) {
+  CellSpec spec = CellSpec::load(repo(cell_file));
+  if (!robot_file.empty()) spec.use_robot_file(repo(robot_file));
+  return spec;
+}
+
 /// Everything a sim test needs about one cell.
 struct Cell {
   CellSpec spec;
@@ -30,8 +36,10 @@ struct Cell {
   CellLayout layout;
   std::unique_ptr<MujocoWorld> world;
 
-  explicit Cell(const std::string& cell_file = "scenes/cells/default.yaml", std::optional<uint64_t> seed = {})
-      : spec(CellSpec::load(repo(cell_file))),
+  /// `robot_file` (repository path): another robot file in place of the cell's own, e.g. the straight torch.
+  explicit Cell(const std::string& cell_file = "scenes/cells/default.yaml", std::optional<uint64_t> seed = {},
+                const std::string& robot_file = "")
+      : spec(load_with_robot(cell_file, robot_file)),
         part(PartSpec::load(spec.part_spec)),
         robot(load_cell_robot(spec)),
         layout(make_layout(spec, part, seed)),

@@ -105,7 +105,7 @@ TEST(Cli, PlanRefusesBadInputAndUnreachableSeams) {
     EXPECT_NE(text.find("\"collisions_checked\":true"), std::string::npos);
   }
   // Out of reach: the job ran, the answer is "cannot weld": exit 3, the seam named, the plan says why.
-  const CliRun far = weldtwin("plan --part " + part + " --pose " + temp_file("far.json", pose(0.95, 0.0)) +
+  const CliRun far = weldtwin("plan --part " + part + " --pose " + temp_file("far.json", pose(1.10, 0.0)) +
                               " --out " + out + " -q");
   EXPECT_EQ(far.code, 3) << far.err;
   EXPECT_NE(far.err.find("seam 'front'"), std::string::npos) << far.err;

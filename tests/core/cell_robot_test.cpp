@@ -29,12 +29,13 @@ std::string vendor_urdf() {
   return "{urdf: " + test::repo("scenes/robots/aubo_description/urdf/aubo_i5.urdf") + "}";
 }
 
-// The default cell's robot (the vendor's description with the tooling declared in its robot file) has the
-// torch tip and the LiDAR where weldtwin's own URDF (tooling baked in) puts them.
+// The straight-torch robot file (the vendor's description with the tooling declared in it) has the torch tip
+// and the LiDAR where weldtwin's own URDF (tooling baked in) puts them.
 TEST(CellRobot, VendorUrdfWithCellToolingEqualsOwnUrdf) {
   const RobotModel own =
       load_cell_robot(CellSpec::load(write_cell("own.yaml", test::repo("scenes/robots/aubo_i5.urdf"))));
-  const CellSpec cell = CellSpec::load(test::repo("scenes/cells/default.yaml"));
+  const CellSpec cell =
+      CellSpec::load(write_cell("straight.yaml", test::repo("scenes/robots/aubo_i5_cell.yaml")));
   ASSERT_EQ(cell.tooling.size(), 4u);
   EXPECT_EQ(std::filesystem::path(cell.robot_urdf).filename(), "aubo_i5.urdf");
   EXPECT_NE(cell.robot_urdf.find("aubo_description"), std::string::npos) << cell.robot_urdf;
