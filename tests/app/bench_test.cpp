@@ -155,6 +155,10 @@ TEST(BenchReport, RatesIntervalsAndPercentilesAreRight) {
         j["cause"] = i == 9 ? "localization: seam 4.000 mm off" : "plan: seam 'x' unreachable at 12.5 deg";
         j["cause_kind"] = i == 9 ? "localization" : "plan";
       }
+      // Trials 7 and 8 failed though found right: 7's suggestion welded, 8 had none.
+      if (i == 7)
+        j["guidance"] = {{"found", true}, {"instruction", "move"}, {"tried", {{"verdict", "pass"}}}};
+      if (i == 8) j["guidance"] = {{"found", false}, {"reason", "none"}};
       j["seconds"] = {{"sweep", 1.0 + i}, {"total", 2.0 + i}};
       if (i < 4) j["calibration"] = {{"translation_error_mm", 0.1 * (i + 1)}, {"rotation_error_deg", 0.01}};
       out << j.dump() << '\n';
@@ -178,6 +182,11 @@ TEST(BenchReport, RatesIntervalsAndPercentilesAreRight) {
   EXPECT_EQ(s["parts"]["a"]["trials"], 6);
   EXPECT_EQ(s["parts"]["b"]["ours"]["seams_under_1mm"]["count"], 3);
   EXPECT_EQ(all["welded"]["count"], 7);
+  EXPECT_EQ(all["guidance"]["failures_found_right"], 2);
+  EXPECT_EQ(all["guidance"]["suggested"]["count"], 1);
+  EXPECT_EQ(all["guidance"]["suggestion_welded"]["count"], 1);
+  EXPECT_FALSE(s["parts"]["a"].contains("guidance")) << "part a had no failure asked about";
+  EXPECT_EQ(s["parts"]["b"]["guidance"]["suggestion_welded"]["count"], 1);
   EXPECT_DOUBLE_EQ(s["seconds"]["sweep"]["max"].get<double>(), 10.0);
   EXPECT_DOUBLE_EQ(s["seconds"]["sweep"]["mean"].get<double>(), 5.5);
   EXPECT_EQ(s["failure_kinds"]["plan"], 2);
@@ -189,6 +198,8 @@ TEST(BenchReport, RatesIntervalsAndPercentilesAreRight) {
   EXPECT_EQ(s["failure_causes"][0]["cause"], "plan: seam 'x' unreachable at # deg");
   const std::string page = slurp(d / "rep/report.html");
   EXPECT_NE(page.find("90.0 %"), std::string::npos);
+  // The page leads with what was welded.
+  EXPECT_LT(page.find("Welded end to end"), page.find("<h2>Success"));
   EXPECT_EQ(page.find("src=\"http"), std::string::npos) << "self-contained";
 }
 
