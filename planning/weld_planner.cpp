@@ -507,6 +507,8 @@ const char* plan_failure_name(PlanFailure failure) {
       return "blocked_move";
     case PlanFailure::kJointLimits:
       return "joint_limits";
+    case PlanFailure::kStartCollides:
+      return "start_collides";
   }
   return "?";
 }
@@ -537,6 +539,14 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
   plan.samples.reserve(32768);
   const JointVector first = setting.start.value_or(setting.home);
   plan.samples.push_back({0.0, first, b.ik().fk(first), -1, false, Phase::kTransit});
+  if (setting.collision) {
+    if (const std::string hit = setting.collision(first, false); !hit.empty()) {
+      plan.problems.push_back("the arm where the plan starts collides (" + hit +
+                              "): clear it away; no move can start from there");
+      plan.failure = PlanFailure::kStartCollides;
+      return plan;
+    }
+  }
 
   bool at_corner = false;  // the TCP stands at the start of the next seam with the arc on
   int branch = -1;

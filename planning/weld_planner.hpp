@@ -79,10 +79,11 @@ struct PlannedSeam {
 /// Why a plan failed, beside its human reason (`WeldPlan::problems`).
 enum class PlanFailure {
   kNone,
-  kOutOfReach,   ///< a seam no way of which the arm reaches within its limits and margins
-  kCollides,     ///< a seam the arm reaches only where it collides with the cell
-  kBlockedMove,  ///< a seam whose stations are clear, but no transit, approach or departure to them is
-  kJointLimits,  ///< the trajectory exceeds a joint's velocity or acceleration limit
+  kOutOfReach,     ///< a seam no way of which the arm reaches within its limits and margins
+  kCollides,       ///< a seam the arm reaches only where it collides with the cell
+  kBlockedMove,    ///< a seam whose stations are clear, but no transit, approach or departure to them is
+  kJointLimits,    ///< the trajectory exceeds a joint's velocity or acceleration limit
+  kStartCollides,  ///< the arm where the plan starts (home, or where it stands) collides: no move can start
 };
 const char* plan_failure_name(PlanFailure failure);
 

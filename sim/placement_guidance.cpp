@@ -104,12 +104,30 @@ PlacementSuggestion suggest_placement(const CellSpec& cell_file, const PartSpec&
   const MujocoWorld world(cell, part, robot, now);
   CollisionChecker screen(world);
   screen.add_part(mesh, now.T_base_part);
+  // Where the arm starts collides with what does not move with the part (clutter, the table): no placement
+  // of the part helps.
+  const JointVector start = setting.plan.start.value_or(setting.plan.home);
+  if (const std::string hit = screen(start); !hit.empty() && hit.find("with the part") == std::string::npos &&
+                                             hit.find("clamp") == std::string::npos) {
+    out.reason = "the arm where it starts collides (" + hit +
+                 "): clear that away first; moving the part does not help";
+    return finish(out);
+  }
   PlanSetting quick = setting.plan;
   quick.stations_only = true;
   quick.collision = screen;
-  size_t unroomy = 0;
+  size_t unroomy = 0, near_failed = 0;
+  std::vector<const Candidate*> failed;  // passed the station test, failed in full
   for (const Candidate& c : candidates) {
     if (out.screened >= static_cast<int>(setting.max_screened) || out.verified >= setting.max_verified) break;
+    const bool near_a_failure = std::any_of(failed.begin(), failed.end(), [&](const Candidate* f) {
+      return std::hypot(c.x - f->x, c.y - f->y) < setting.retry_apart_m &&
+             std::abs(std::remainder(c.yaw - f->yaw, period)) < setting.retry_apart_rad;
+    });
+    if (near_a_failure) {
+      ++near_failed;
+      continue;
+    }
     const CellLayout layout = layout_at(cell, part, planar_pose(c.x, c.y, cell.table.top_z_m, c.yaw));
     if (!layout_problem(cell, part, layout).empty()) {
       ++unroomy;
@@ -127,8 +145,11 @@ PlacementSuggestion suggest_placement(const CellSpec& cell_file, const PartSpec&
     full.stations_only = false;
     full.collision = checker;
     const WeldPlan plan = plan_welds(part, layout.T_base_part, robot, full);
-    if (!plan.ok() || plan.samples.empty()) continue;
-    if (!replay_plan(there, robot, plan, part, mesh, layout.T_base_part, setting.replay).passed()) continue;
+    if (!plan.ok() || plan.samples.empty() ||
+        !replay_plan(there, robot, plan, part, mesh, layout.T_base_part, setting.replay).passed()) {
+      failed.push_back(&c);
+      continue;
+    }
     out.found = true;
     out.T_base_part = layout.T_base_part;
     out.move_m = c.move;
@@ -139,7 +160,8 @@ PlacementSuggestion suggest_placement(const CellSpec& cell_file, const PartSpec&
   std::ostringstream why;
   why << "no placement within " << std::lround(1e3 * setting.max_move_m) << " mm welds in the twin ("
       << out.screened << " with room screened, " << out.verified << " planned in full and replayed, "
-      << unroomy << " without room for the part and its clamps)";
+      << unroomy << " without room for the part and its clamps, " << near_failed
+      << " passed over beside ones that failed in full)";
   out.reason = why.str();
   return finish(out);
 }

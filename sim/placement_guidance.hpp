@@ -23,8 +23,12 @@ struct GuidanceSetting {
   double max_move_m = 0.6;            ///< no farther than this
   double mm_per_deg = 1.0;            ///< a turn of 1 deg costs as much as a move of this many mm
   size_t max_screened = 4000;         ///< station tests at most
-  int max_verified = 6;               ///< full plans and replays at most
-  PlanSetting plan;                   ///< the planner as the cell uses it (its collision test is set here)
+  int max_verified = 8;               ///< full plans and replays at most
+  /// A candidate this close (move and turn both) to one that passed the station test but failed in full is
+  /// passed over: its transits would meet the same clamp or clutter.
+  double retry_apart_m = 0.04;
+  double retry_apart_rad = deg2rad(20);
+  PlanSetting plan;  ///< the planner as the cell uses it (its collision test is set here)
   ReplaySetting replay;
 };
 

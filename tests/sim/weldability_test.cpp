@@ -38,6 +38,33 @@ TEST(Placement, TableAreaDrawsBeyondTheRingAndEveryLayoutFits) {
   EXPECT_GE(outside_ring, 10);  // a table 0.8 x 1.2 m is mostly not the ring
 }
 
+TEST(Placement, DrawnClutterLeavesTheArmAtHomeClear) {
+  // Clutter beside the base where the shoulder's housing hangs made every plan of a layout fail at its
+  // first move, wherever the part stood: draws keep it off that circle.
+  CellSpec spec = CellSpec::load(test::repo("scenes/cells/default.yaml"));
+  spec.placement.area = PlacementSpec::Area::kTable;
+  const PartSpec part = PartSpec::load(spec.part_spec);
+  const RobotModel robot = load_cell_robot(spec);
+  const JointVector home = PlanSetting().home;
+  int clutter = 0;
+  for (uint64_t seed = 1; seed <= 40; ++seed) {
+    const CellLayout layout = make_layout(spec, part, seed);
+    clutter += static_cast<int>(layout.clutter.size());
+    const MujocoWorld world(spec, part, robot, layout);
+    const CollisionChecker checker(world);
+    const std::string hit = checker(home);
+    EXPECT_EQ(hit.find("clutter"), std::string::npos) << "seed " << seed << ": " << hit;
+  }
+  EXPECT_GE(clutter, 30);
+  // A box where the shoulder hangs is refused by name.
+  CellLayout near = make_layout(spec, part, 1);
+  ClutterItem box;
+  box.size_m = Vec3(0.08, 0.08, 0.07);
+  box.x_m = 0.03, box.y_m = -0.23;
+  near.clutter = {box};
+  EXPECT_NE(layout_problem(spec, part, near).find("where the arm's shoulder swings"), std::string::npos);
+}
+
 TEST(Placement, AMovedCheckerAnswersAsOneBuiltThere) {
   const Cell a("scenes/cells/default.yaml");  // the cell's own layout: its clamp sites and clutter
   // The part and its clamps moved to another seed's pose; the clutter stays.
