@@ -81,6 +81,49 @@ TEST(Cli, BadInputGivesOneLineAndExitCode2) {
                    "missing_mesh.stl");
 }
 
+TEST(Cli, RunSaysWhereToPutAPartThatDoesNotWeldWhereItLies) {
+  // The default cell's seed 11 with the straight torch: the upper arm meets the table on seam 'back'.
+  const std::string cell = temp_file(
+      "straight.yaml", cell_with("clamps: [0, 2]\n", test::repo("scenes/robots/aubo_i5_cell.yaml")));
+  const std::string dir = (std::filesystem::temp_directory_path() / "weldtwin_cli_guidance").string();
+  const CliRun r = weldtwin("run " + cell + " --seed 11 --out " + dir + " -q");
+  EXPECT_EQ(r.code, 3) << r.err;
+  std::ifstream in(dir + "/report.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  ASSERT_TRUE(j.contains("placement_suggestion")) << j.dump(1).substr(0, 2000);
+  const nlohmann::json& g = j["placement_suggestion"];
+  ASSERT_TRUE(g["found"].get<bool>()) << g.dump();
+  EXPECT_NE(g["instruction"].get<std::string>().find("the part"), std::string::npos);
+  EXPECT_GE(g["planned_and_replayed"].get<int>(), 1);
+  EXPECT_GT(g["move_mm"].get<double>() + std::abs(g["turn_deg"].get<double>()), 0.0);
+  EXPECT_GT(j["weldability_map"]["welds"].get<int>(), 0);
+  EXPECT_TRUE(std::filesystem::exists(dir + "/weldability.png"));
+  std::ifstream page(dir + "/report.html");
+  const std::string html((std::istreambuf_iterator<char>(page)), std::istreambuf_iterator<char>());
+  EXPECT_NE(html.find("Where to put the part"), std::string::npos);
+  EXPECT_NE(html.find(g["instruction"].get<std::string>()), std::string::npos);
+}
+
+TEST(Cli, ReachMapsThePartOnTheTable) {
+  const std::string dir = (std::filesystem::temp_directory_path() / "weldtwin_cli_reach").string();
+  const CliRun r = weldtwin("reach " + test::repo("scenes/parts/tube_on_plate.yaml") +
+                            " --grid-mm 100 --yaw-step-deg 90 --out " + dir + " -q");
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream in(dir + "/map.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  const nlohmann::json& n = j["counts"];
+  // Every placement of the grid is counted once, and those with room are listed.
+  EXPECT_EQ(n["welds"].get<size_t>() + n["out_of_reach"].get<size_t>() + n["collides"].get<size_t>() +
+                n["no_room"].get<size_t>(),
+            9u * 13u * 4u);
+  EXPECT_EQ(j["placements"].size(), 9u * 13u * 4u - n["no_room"].get<size_t>());
+  EXPECT_GT(n["welds"].get<size_t>(), 0u);
+  EXPECT_TRUE(std::filesystem::exists(dir + "/map.png"));
+  expect_bad_input(
+      weldtwin("reach " + test::repo("scenes/parts/tube_on_plate.yaml") + " --grid-mm 0 --out " + dir),
+      "--grid-mm");
+}
+
 TEST(Cli, PlanRefusesBadInputAndUnreachableSeams) {
   const std::string out = (std::filesystem::temp_directory_path() / "weldtwin_cli_plan.json").string();
   const std::string part = test::repo("scenes/parts/tube_on_plate.yaml");

@@ -24,8 +24,8 @@ nlohmann::json run_seed(int seed, int& exit_code) {
   const std::string cell = std::filesystem::path(g_cell).stem().string();
   const std::string dir = ::testing::TempDir() + "weldtwin_run_" + cell + "_" + std::to_string(seed);
   const std::string cmd = std::string(WELDTWIN_BINARY) + " run " + weldtwin::test::repo(g_cell) + " --seed " +
-                          std::to_string(seed) + " --out " + dir + " --no-renders -q --threads 1 > " + dir +
-                          ".stdout 2>&1";
+                          std::to_string(seed) + " --out " + dir +
+                          " --no-renders --no-guidance -q --threads 1 > " + dir + ".stdout 2>&1";
   const int status = std::system(cmd.c_str());
   exit_code = WEXITSTATUS(status);
   std::ifstream in(dir + "/report.json");
