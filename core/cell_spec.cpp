@@ -177,7 +177,6 @@ CellSpec parse(const std::string& file) {
     pl.max_radius_m = yaml::maybe_length(p, "max_radius", file).value_or(pl.max_radius_m);
     pl.max_bearing_rad = yaml::maybe_angle(p, "max_bearing", file).value_or(pl.max_bearing_rad);
     pl.base_keepout_m = yaml::maybe_length(p, "base_keepout", file).value_or(pl.base_keepout_m);
-    pl.clutter_keepout_m = yaml::maybe_length(p, "clutter_keepout", file).value_or(pl.clutter_keepout_m);
     if (p["area"]) {
       const auto area = placement_area_from(yaml::text(p, "area", file));
       if (!area) throw input_error(file, "placement: area must be 'ring' or 'table'");

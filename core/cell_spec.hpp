@@ -27,10 +27,10 @@ struct PlacementSpec {
   double min_radius_m = 0.40;              ///< closest seam point to the base axis
   double max_radius_m = 0.56;              ///< farthest seam point from the base axis
   double max_bearing_rad = deg2rad(75.0);  ///< |atan2(y, x)| of the part origin
-  double base_keepout_m = 0.16;            ///< no part or clamp within this radius of the base axis
-  /// No clutter within this radius: the arm's shoulder housing hangs about 0.23 m off the base axis just
-  /// above the table at home, and sweeps that circle as the base joint turns.
-  double clutter_keepout_m = 0.26;
+  /// No part, clamp or clutter within this radius of the base axis: the base, and the arm's shoulder housing,
+  /// which hangs about 0.23 m off the axis just above the table at home and sweeps that circle as the base
+  /// joint turns.
+  double base_keepout_m = 0.26;
 };
 
 /// "ring" / "table"; nullopt for any other name.

@@ -151,8 +151,7 @@ std::string layout_problem(const CellSpec& cell, const PartSpec& part, const Cel
     const Disc d = clutter_disc(layout.clutter[i]);
     const std::string name = "clutter item " + std::to_string(i);
     if (!on_table(cell.table, d.c, d.r)) return name + " stands off the table";
-    if (d.c.norm() < std::max(cell.placement.base_keepout_m, cell.placement.clutter_keepout_m) + d.r)
-      return name + " stands where the arm's shoulder swings";
+    if (d.c.norm() < cell.placement.base_keepout_m + d.r) return name + " overlaps the robot base";
     if (distance_to_part(part, layout.T_base_part, d.c) < d.r + 0.02) return name + " overlaps the part";
     for (const Disc& t : taken)
       if (overlaps(d, t, 0.01)) return name + " overlaps a clamp or other clutter";
