@@ -22,6 +22,17 @@ double yaw_of(const Iso3& T) {
   return std::atan2(T.linear()(1, 0), T.linear()(0, 0));
 }
 
+// The planner in a world, against its table, clamps, clutter and the part at T_base_part.
+WeldPlan plan_in(const MujocoWorld& world, const PartSpec& part, const Mesh& mesh, const RobotModel& robot,
+                 const Iso3& T_base_part, bool stations_only = false) {
+  CollisionChecker checker(world);
+  checker.add_part(mesh, T_base_part);
+  PlanSetting setting;
+  setting.collision = checker;
+  setting.stations_only = stations_only;
+  return plan_welds(part, T_base_part, robot, setting);
+}
+
 TEST(Placement, TableAreaDrawsBeyondTheRingAndEveryLayoutFits) {
   CellSpec spec = CellSpec::load(test::repo("scenes/cells/default.yaml"));
   const PartSpec part = PartSpec::load(spec.part_spec);
@@ -165,11 +176,7 @@ TEST(Placement, TheSuggestionWeldsWhereThePartDoesNot) {
   const Cell cell("scenes/cells/default.yaml", 11, kStraightTorch);
   const Mesh mesh = load_mesh(cell.part.mesh_path);
   {
-    CollisionChecker checker(*cell.world);
-    checker.add_part(mesh, cell.layout.T_base_part);
-    PlanSetting setting;
-    setting.collision = checker;
-    const WeldPlan plan = plan_welds(cell.part, cell.layout.T_base_part, cell.robot, setting);
+    const WeldPlan plan = plan_in(*cell.world, cell.part, mesh, cell.robot, cell.layout.T_base_part);
     ASSERT_FALSE(plan.ok()) << "the seed no longer fails where it lies: pick another";
     EXPECT_EQ(plan.failure, PlanFailure::kCollides) << plan.problems.front();
   }
@@ -188,11 +195,7 @@ TEST(Placement, TheSuggestionWeldsWhereThePartDoesNot) {
   const CellLayout moved = layout_at(spec, cell.part, s.T_base_part);
   EXPECT_EQ(layout_problem(spec, cell.part, moved), "");
   const MujocoWorld world(spec, cell.part, cell.robot, moved);
-  CollisionChecker checker(world);
-  checker.add_part(mesh, moved.T_base_part);
-  PlanSetting setting;
-  setting.collision = checker;
-  const WeldPlan plan = plan_welds(cell.part, moved.T_base_part, cell.robot, setting);
+  const WeldPlan plan = plan_in(world, cell.part, mesh, cell.robot, moved.T_base_part);
   ASSERT_TRUE(plan.ok()) << plan.problems.front();
   const ReplayResult replay = replay_plan(world, cell.robot, plan, cell.part, mesh, moved.T_base_part);
   EXPECT_TRUE(replay.passed()) << replay.failures.front();
@@ -209,13 +212,8 @@ TEST(Placement, StationsOnlyPassesWhereTheFullPlanDoes) {
   for (uint64_t seed = 1; seed <= 6; ++seed) {
     const Cell cell("scenes/cells/default.yaml", seed);
     const Mesh mesh = load_mesh(cell.part.mesh_path);
-    CollisionChecker checker(*cell.world);
-    checker.add_part(mesh, cell.layout.T_base_part);
-    PlanSetting setting;
-    setting.collision = checker;
-    const WeldPlan full = plan_welds(cell.part, cell.layout.T_base_part, cell.robot, setting);
-    setting.stations_only = true;
-    const WeldPlan quick = plan_welds(cell.part, cell.layout.T_base_part, cell.robot, setting);
+    const WeldPlan full = plan_in(*cell.world, cell.part, mesh, cell.robot, cell.layout.T_base_part);
+    const WeldPlan quick = plan_in(*cell.world, cell.part, mesh, cell.robot, cell.layout.T_base_part, true);
     if (full.ok()) {
       ++full_ok;
       EXPECT_TRUE(quick.ok()) << seed << ": " << quick.problems.front();
