@@ -357,8 +357,25 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d,
       g["instruction"] = s.instruction;
       g["move_mm"] = rounded(1e3 * s.move_m, 1e-3);
       g["turn_deg"] = rounded(rad2deg(s.turn_rad), 1e-3);
+      // Put down as an operator would: within the guidance's tolerance of where asked (uniform, drawn from
+      // the trial's seed), or where asked when the part and its clamps would not fit so.
+      std::mt19937_64 rng(d.trial_seed ^ 0x67756964616e6365ull);
+      std::uniform_real_distribution<double> u(-1.0, 1.0);
+      const Vec3 off(guide.placement_tolerance_m * u(rng), guide.placement_tolerance_m * u(rng), 0.0);
+      const double turn = guide.placement_tolerance_rad * u(rng);
+      const CellSpec laid_out = cell_as_laid_out(c.cell, d.layout);
+      Iso3 put = s.T_base_part;
+      put.translation() += off;
+      put.linear() = Eigen::AngleAxisd(turn, Vec3::UnitZ()).toRotationMatrix() * put.linear();
       Draw moved = d;
-      moved.layout = layout_at(cell_as_laid_out(c.cell, d.layout), c.part, s.T_base_part);
+      moved.layout = layout_at(laid_out, c.part, put);
+      if (!layout_problem(laid_out, c.part, moved.layout).empty()) {
+        moved.layout = layout_at(laid_out, c.part, s.T_base_part);
+        put = s.T_base_part;
+      }
+      g["put_off_mm"] = rounded(1e3 * (put.translation() - s.T_base_part.translation()).norm(), 1e-3);
+      g["put_turned_deg"] = rounded(
+          rad2deg(Eigen::AngleAxisd(put.linear() * s.T_base_part.linear().transpose()).angle()), 1e-3);
       BenchCommand again = cmd;
       again.guidance = false;
       again.paper = false;

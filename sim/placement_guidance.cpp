@@ -134,8 +134,19 @@ PlacementSuggestion suggest_placement(const CellSpec& cell_file, const PartSpec&
       continue;
     }
     ++out.screened;
-    screen.place(layout);
-    if (!plan_welds(part, layout.T_base_part, robot, quick).ok()) continue;
+    // The station test where asked, and as far off as an operator puts a part down (where there is room).
+    const auto stations_clear = [&](double x, double y, double yaw) {
+      const CellLayout l = layout_at(cell, part, planar_pose(x, y, cell.table.top_z_m, yaw));
+      if (!layout_problem(cell, part, l).empty()) return true;
+      screen.place(l);
+      return plan_welds(part, l.T_base_part, robot, quick).ok();
+    };
+    const double d = setting.placement_tolerance_m, a = setting.placement_tolerance_rad;
+    if (!stations_clear(c.x, c.y, c.yaw) || !stations_clear(c.x + d, c.y, c.yaw) ||
+        !stations_clear(c.x - d, c.y, c.yaw) || !stations_clear(c.x, c.y + d, c.yaw) ||
+        !stations_clear(c.x, c.y - d, c.yaw) || !stations_clear(c.x, c.y, c.yaw + a) ||
+        !stations_clear(c.x, c.y, c.yaw - a))
+      continue;
     // Planned in full and replayed, in the world with the part and its clamps there.
     ++out.verified;
     const MujocoWorld there(cell, part, robot, layout);

@@ -28,6 +28,10 @@ struct GuidanceSetting {
   /// passed over: its transits would meet the same clamp or clutter.
   double retry_apart_m = 0.04;
   double retry_apart_rad = deg2rad(20);
+  /// An operator puts a part down within about this much of where asked: a candidate is taken only when the
+  /// station test also passes this far off along x and y, and turned this far either way.
+  double placement_tolerance_m = 0.01;
+  double placement_tolerance_rad = deg2rad(5);
   PlanSetting plan;  ///< the planner as the cell uses it (its collision test is set here)
   ReplaySetting replay;
 };
