@@ -34,13 +34,14 @@ struct MeshBox {
 const MeshBox& mesh_box(const float* v, int count) {
   thread_local std::unordered_map<const float*, MeshBox> boxes;
   MeshBox& box = boxes[v];
-  const float* end = v + 3 * (count - 1);
-  if (count > 0 && box.count == count && std::equal(v, v + 3, box.first) &&
-      std::equal(end, end + 3, box.last))
+  if (count <= 0) {
+    box = MeshBox();
     return box;
+  }
+  const float* end = v + 3 * (count - 1);
+  if (box.count == count && std::equal(v, v + 3, box.first) && std::equal(end, end + 3, box.last)) return box;
   box = MeshBox();
   box.count = count;
-  if (count <= 0) return box;
   std::copy(v, v + 3, box.first);
   std::copy(end, end + 3, box.last);
   for (int i = 0; i < count; ++i)
