@@ -76,32 +76,36 @@ WeldabilityMap weldability_map(const CellSpec& cell_file, const PartSpec& part, 
 
   PlanSetting plan_setting = setting.plan;
   plan_setting.stations_only = true;
-  const size_t workers =
-      std::min<size_t>(roomy.size(), setting.threads > 0 ? static_cast<size_t>(setting.threads)
-                                                         : std::max(1u, std::thread::hardware_concurrency()));
-  std::atomic<size_t> next{0}, done{0};
+  // Each worker its own collision checker (a model copy and data), moved from placement to placement.
+  struct Worker {
+    CollisionChecker checker;
+    PlanSetting plan;
+  };
+  std::atomic<size_t> done{0};
   std::mutex progress_mutex;
-  parallel_for(workers, static_cast<int>(workers), [&](size_t) {
-    CollisionChecker checker(world);  // its own model copy and data: one per worker
-    checker.add_part(mesh, layouts[roomy.front()].T_base_part);
-    PlanSetting own = plan_setting;
-    own.collision = checker;
-    for (size_t k; (k = next++) < roomy.size();) {
-      const size_t i = roomy[k];
-      MapPlacement& p = map.placements[i];
-      checker.place(layouts[i]);
-      const WeldPlan plan = plan_welds(part, layouts[i].T_base_part, robot, own);
-      p.kind = plan.ok()                                ? PlacementKind::kWelds
-               : plan.failure == PlanFailure::kCollides ? PlacementKind::kCollides
-                                                        : PlacementKind::kOutOfReach;
-      p.reason = plan.ok() ? "" : plan.problems.front();
-      const size_t d = ++done;
-      if (progress && (d % 256 == 0 || d == roomy.size())) {
-        const std::lock_guard<std::mutex> lock(progress_mutex);
-        progress(d, roomy.size());
-      }
-    }
-  });
+  parallel_for_with(
+      roomy.size(), setting.threads,
+      [&] {
+        Worker w{CollisionChecker(world), plan_setting};
+        w.checker.add_part(mesh, layouts[roomy.front()].T_base_part);
+        w.plan.collision = w.checker;
+        return w;
+      },
+      [&](Worker& w, size_t k) {
+        const size_t i = roomy[k];
+        MapPlacement& p = map.placements[i];
+        w.checker.place(layouts[i]);
+        const WeldPlan plan = plan_welds(part, layouts[i].T_base_part, robot, w.plan);
+        p.kind = plan.ok()                                ? PlacementKind::kWelds
+                 : plan.failure == PlanFailure::kCollides ? PlacementKind::kCollides
+                                                          : PlacementKind::kOutOfReach;
+        p.reason = plan.ok() ? "" : plan.problems.front();
+        const size_t d = ++done;
+        if (progress && (d % 256 == 0 || d == roomy.size())) {
+          const std::lock_guard<std::mutex> lock(progress_mutex);
+          progress(d, roomy.size());
+        }
+      });
   map.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return map;
 }
