@@ -1,0 +1,345 @@
+#include "planning/plan_builder.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "planning/free_path.hpp"
+#include "planning/lspb.hpp"
+
+namespace weldtwin {
+namespace planner {
+
+double Builder::margin(const IkSolution& s) const {
+  const double limits = std::min((s.q - robot_.lower()).minCoeff(), (robot_.upper() - s.q).minCoeff());
+  const double singular = std::min({s.shoulder_margin, s.elbow_margin, s.wrist_margin});
+  if (limits < set_.min_margin_rad || singular < set_.min_singularity_sine) return -1.0;
+  return std::min(limits, singular);
+}
+
+Choice Builder::choose(const SeamGeometry& g, double s0, double s1, std::optional<double> fixed_roll,
+                       int prefer_branch, bool any_will_do) const {
+  std::vector<double> rolls;
+  if (fixed_roll) {
+    rolls.push_back(*fixed_roll);
+  } else {
+    for (double r = -kPi; r < kPi - 1e-9; r += set_.roll_step_rad) rolls.push_back(r);
+  }
+  const int stations = std::max(6, static_cast<int>((s1 - s0) / 0.012));
+  Choice best;
+  for (double roll : rolls) {
+    std::array<double, 8> worst;
+    worst.fill(std::numeric_limits<double>::infinity());
+    std::array<JointVector, 8> last, first;
+    std::array<std::vector<std::pair<double, JointVector>>, 8>
+        stations_q;  // (s, q) of each station, for the collision test of a winner
+    // Stations along the stretch, plus its approach (k = -1) and departure (k = stations + 1) poses.
+    for (int k = -1; k <= stations + 1; ++k) {
+      const Iso3 pose = k < 0          ? backed_off(g.tcp(s0, roll), set_.approach_m)
+                        : k > stations ? backed_off(g.tcp(s1, roll), set_.approach_m)
+                                       : g.tcp(s0 + (s1 - s0) * k / stations, roll);
+      const auto sols = ik_.solve(pose, k < 0 ? q_[5] : last[0][5]);
+      for (int b = 0; b < 8; ++b) {
+        const IkSolution& s = sols[static_cast<size_t>(b)];
+        double m = s.valid && s.within_limits ? margin(s) : -1.0;
+        if (m >= 0 && k > 0 && k <= stations &&
+            (s.q - last[static_cast<size_t>(b)]).cwiseAbs().maxCoeff() > 0.3)
+          m = -1.0;
+        worst[static_cast<size_t>(b)] = std::min(worst[static_cast<size_t>(b)], m);
+        if (s.valid) last[static_cast<size_t>(b)] = s.q;
+        if (set_.collision && m >= 0 && k >= 0 && k <= stations)
+          stations_q[static_cast<size_t>(b)].emplace_back(s0 + (s1 - s0) * k / stations, s.q);
+        if (k < 0) first[static_cast<size_t>(b)] = s.q;
+      }
+      // Stop on this roll once no branch can still win.
+      if (std::all_of(worst.begin(), worst.end(),
+                      [&](double m) { return m < 0.0 || m + 0.05 <= best.margin; }))
+        break;
+    }
+    for (int b = 0; b < 8; ++b) {
+      const double m = worst[static_cast<size_t>(b)] + (b == prefer_branch ? 0.05 : 0.0);
+      if (worst[static_cast<size_t>(b)] < 0 || m <= best.margin) continue;
+      const auto rejected = [&] {  // the best candidate a collision ruled out names the problem
+        if (m > rejected_margin_) {
+          rejected_margin_ = m;
+          rejected_hit_ = last_hit_;
+        }
+      };
+      if (collides(between_stations(g, roll, b, stations_q[static_cast<size_t>(b)]))) {
+        rejected();
+        continue;
+      }
+      const auto in = clear_way(g.tcp(s0, roll), b, first[static_cast<size_t>(b)]);
+      const auto out = in ? clear_way(g.tcp(s1, roll), b, last[static_cast<size_t>(b)]) : std::nullopt;
+      if (!in || !out) {
+        if (!last_hit_.empty()) rejected();
+        continue;
+      }
+      best = {true, roll, b, m, in->second, in->first, out->first};
+    }
+    if (any_will_do && best.ok) return best;  // feasibility is all the caller asks
+  }
+  return best;
+}
+
+std::vector<std::pair<JointVector, bool>> Builder::between_stations(
+    const SeamGeometry& g, double roll, int b,
+    const std::vector<std::pair<double, JointVector>>& stations) const {
+  std::vector<std::pair<JointVector, bool>> out;
+  for (size_t k = 0; k < stations.size(); ++k) {
+    if (k > 0) {
+      const auto& [sa, qa] = stations[k - 1];
+      const auto& [sb, qb] = stations[k];
+      const double change = (qb - qa).cwiseAbs().maxCoeff();
+      const int n = std::min(64, static_cast<int>(std::ceil(change / set_.collision_step_rad - 1e-9)));
+      JointVector prev = qa;
+      for (int i = 1; i < n; ++i) {
+        const IkSolution sol = ik_.solve_branch(g.tcp(sa + (sb - sa) * i / n, roll), b, prev[5]);
+        if (!sol.valid) continue;  // the stations on both sides were reached; the check is the point
+        out.emplace_back(sol.q, true);
+        prev = sol.q;
+      }
+    }
+    out.emplace_back(stations[k].second, true);
+  }
+  return out;
+}
+
+void Builder::rewind(const Mark& m) {
+  plan_.samples.resize(m.samples);
+  plan_.problems.resize(m.problems);
+  q_ = m.q;
+  t_ = m.t;
+  branch_ = m.branch;
+}
+
+bool Builder::collides(const std::vector<std::pair<JointVector, bool>>& qs) const {
+  if (!set_.collision) return false;
+  for (const auto& [q, welding] : qs) {
+    std::string hit = collision(q, welding);
+    if (hit.empty()) continue;
+    last_hit_ = hit;
+    return true;
+  }
+  return false;
+}
+
+std::string Builder::collision(const JointVector& q, bool welding) const {
+  const ConfigKey key{q[0], q[1], q[2], q[3], q[4], q[5], welding ? 1.0 : 0.0};
+  if (const auto it = answers_.find(key); it != answers_.end()) return it->second;
+  if (answers_.size() > 200000) answers_.clear();
+  std::string hit = set_.collision(q, welding);
+  answers_.emplace(key, hit);
+  return hit;
+}
+
+std::optional<std::pair<Vec3, JointVector>> Builder::clear_way(const Iso3& at, int b,
+                                                               const JointVector& q_near) const {
+  last_hit_.clear();
+  for (const Vec3& dir : {Vec3(-at.linear().col(2)), Vec3(Vec3::UnitZ())}) {
+    std::vector<std::pair<JointVector, bool>> qs;
+    JointVector prev = q_near;
+    bool ok = true;
+    for (double f : {1.0, 0.75, 0.5, 0.25, 0.1}) {
+      const IkSolution sol = ik_.solve_branch(moved(at, dir, f * set_.approach_m), b, prev[5]);
+      if (!sol.valid || !sol.within_limits || (f < 1.0 && (sol.q - prev).cwiseAbs().maxCoeff() > 0.3)) {
+        ok = false;
+        break;
+      }
+      qs.emplace_back(sol.q, false);
+      prev = sol.q;
+    }
+    if (ok && !collides(qs)) return std::make_pair(dir, qs.front().first);
+    if (!set_.collision) break;
+  }
+  return std::nullopt;
+}
+
+std::string Builder::main_collision() const {
+  std::string what = rejected_hit_;
+  rejected_hit_.clear();
+  rejected_margin_ = -1.0;
+  return what;
+}
+
+std::string Builder::collision_since(size_t from) const {
+  std::string what;
+  if (!set_.collision) return what;
+  for (size_t k = from; k < plan_.samples.size(); k += 2)
+    if (!(what = set_.collision(plan_.samples[k].q, plan_.samples[k].arc)).empty()) break;
+  return what;
+}
+
+Builder::Ran Builder::transit(const JointVector& to, const std::string& what) {
+  const Mark start = mark();
+  joint_move(to);
+  std::string hit = collision_since(start.samples);
+  if (hit.empty()) return Ran::kOk;
+  rewind(start);
+  const Iso3 here = ik_.fk(q_), there = ik_.fk(to);
+  const double top = std::max(here.translation().z(), there.translation().z()) + set_.transit_lift_m;
+  auto up = [&](const Iso3& T) {
+    Iso3 U = T;
+    U.translation().z() = top;
+    return U;
+  };
+  for (const bool via_home : {false, true})
+    for (const bool vertical : {true, false}) {
+      if (via_home && (at_home(q_) || at_home(to))) continue;
+      const Iso3 out = vertical ? up(here) : backed_off(here, set_.transit_lift_m);
+      const Iso3 in = vertical ? up(there) : backed_off(there, set_.transit_lift_m);
+      const bool legs = leg_out_across_in(here, out, via_home, in, there, to, what);
+      if (legs && collision_since(start.samples).empty()) return Ran::kOk;
+      rewind(start);
+    }
+  // Last: a path found in the free joint space, run waypoint to waypoint.
+  const std::vector<JointVector> path = free_joint_path(
+      q_, to, robot_.lower(), robot_.upper(),
+      [&](const JointVector& q) { return set_.collision(q, false).empty(); }, set_.collision_step_rad);
+  if (!path.empty()) {
+    for (size_t k = 1; k < path.size(); ++k) joint_move(path[k]);
+    if ((q_ - to).cwiseAbs().maxCoeff() < 1e-9) return Ran::kOk;
+    rewind(start);
+  }
+  problem(what + ": collides with " + hit + " (straight, lifted, by way of home, or any way found in " +
+          "joint space)");
+  return Ran::kBlocked;
+}
+
+bool Builder::leg_out_across_in(const Iso3& here, const Iso3& out, bool via_home, const Iso3& in,
+                                const Iso3& there, const JointVector& to, const std::string& what) {
+  const size_t p0 = plan_.problems.size();
+  const int saved = branch_;
+  bool ok = (branch_ = branch_of(here, q_)) >= 0 && line(here, out, Phase::kTransit, what);
+  if (ok && via_home) joint_move(set_.home);
+  if (ok && (branch_ = branch_of(there, to)) >= 0) {
+    const IkSolution sol = ik_.solve_branch(in, branch_, to[5]);
+    ok = sol.valid && sol.within_limits;
+    if (ok) {
+      JointVector q_in = sol.q;
+      for (int j = 0; j < 6; ++j) q_in[j] = to[j] + std::remainder(q_in[j] - to[j], 2.0 * kPi);
+      joint_move(q_in);
+      ok = line(in, there, Phase::kTransit, what) && (q_ - to).cwiseAbs().maxCoeff() < 1e-6;
+    }
+  } else {
+    ok = false;
+  }
+  branch_ = saved;
+  plan_.problems.resize(p0);
+  return ok;
+}
+
+int Builder::branch_of(const Iso3& T, const JointVector& q) const {
+  for (int b = 0; b < 8; ++b) {
+    const IkSolution s = ik_.solve_branch(T, b, q[5]);
+    if (!s.valid) continue;
+    bool same = true;
+    for (int j = 0; j < 6; ++j) same &= std::abs(std::remainder(s.q[j] - q[j], 2.0 * kPi)) < 1e-6;
+    if (same) return b;
+  }
+  return -1;
+}
+
+bool Builder::add(const Iso3& T, int seam, Phase phase, const std::string& what) {
+  const bool arc = phase == Phase::kWeld || phase == Phase::kCorner;
+  // The IK branch chosen for the seam; no hopping to a neighbouring branch near a singularity.
+  const IkSolution sol = ik_.solve_branch(T, branch_, q_[5]);
+  if (!sol.valid || !sol.within_limits) {
+    problem(what + ": a pose on the path is out of reach");
+    return false;
+  }
+  JointVector next = sol.q;
+  // Angles are in (-pi, pi]: take the turn nearest to the current configuration.
+  for (int j = 0; j < 6; ++j) next[j] = q_[j] + std::remainder(next[j] - q_[j], 2.0 * kPi);
+  if (((next - robot_.lower()).array() < 0).any() || ((robot_.upper() - next).array() < 0).any()) {
+    problem(what + ": a pose on the path is out of reach");
+    return false;
+  }
+  // Between two samples no joint can move more than its velocity limit allows, with some slack: a bigger
+  // step is a jump to another IK branch.
+  if (((next - q_).cwiseAbs().array() > 1.5 * robot_.max_velocity().array() * dt_).any()) {
+    problem(what + ": the path needs a configuration change (IK branch flip)");
+    return false;
+  }
+  q_ = next;
+  t_ += dt_;
+  plan_.samples.push_back({t_, q_, T, seam, arc, phase});
+  return true;
+}
+
+void Builder::joint_move(const JointVector& to) {
+  const JointVector from = q_, delta = to - from;
+  double duration = 0.0;
+  Lspb law;
+  for (int j = 0; j < 6; ++j) {
+    const Lspb l = Lspb::fastest(std::abs(delta[j]), set_.limit_fraction * robot_.max_velocity()[j] / slow_,
+                                 set_.limit_fraction * robot_.max_acceleration()[j] / (slow_ * slow_));
+    if (l.duration > duration) {
+      duration = l.duration;
+      law = l;
+    }
+  }
+  const int n = static_cast<int>(std::ceil(duration / dt_ - 1e-9));
+  for (int k = 1; k <= n; ++k) {
+    double s, sd, sdd;
+    law.at(k * dt_, s, sd, sdd);
+    q_ = from + (law.length > 0 ? s / law.length : 1.0) * delta;
+    t_ += dt_;
+    plan_.samples.push_back({t_, q_, ik_.fk(q_), -1, false, Phase::kTransit});
+  }
+}
+
+bool Builder::line(const Iso3& from, const Iso3& to, Phase phase, const std::string& what) {
+  const Vec3 delta = to.translation() - from.translation();
+  const Lspb law = Lspb::fastest(delta.norm(), set_.approach_speed_m_s / slow_,
+                                 set_.approach_accel_m_s2 / (slow_ * slow_));
+  const int n = static_cast<int>(std::ceil(law.duration / dt_ - 1e-9));
+  for (int k = 1; k <= n; ++k) {
+    double s, sd, sdd;
+    law.at(k * dt_, s, sd, sdd);
+    Iso3 T = from;
+    T.translation() += (law.length > 0 ? s / law.length : 1.0) * delta;
+    if (!add(T, -1, phase, what)) return false;
+  }
+  return true;
+}
+
+bool Builder::weld(const SeamGeometry& g, double s0, double s1, double roll, int seam_index) {
+  const Lspb law = Lspb::with_blend_fraction(s1 - s0, g.seam->speed_m_s, set_.blend_fraction);
+  const int n = static_cast<int>(std::ceil(law.duration / dt_ - 1e-9));
+  for (int k = 1; k <= n; ++k) {
+    double s, sd, sdd;
+    law.at(k * dt_, s, sd, sdd);
+    if (!add(g.tcp(s0 + s, roll), seam_index, Phase::kWeld, "seam '" + g.seam->name + "'")) return false;
+  }
+  return true;
+}
+
+bool Builder::corner(const Iso3& from, const Iso3& to, int seam_index, const std::string& what) {
+  JointVector q_to;
+  if (!ik_.nearest(to, q_, q_to)) {
+    problem(what + ": the corner's end pose is out of reach");
+    return false;
+  }
+  double duration = 0.0;
+  for (int j = 0; j < 6; ++j)
+    duration = std::max(
+        duration, Lspb::fastest(std::abs(q_to[j] - q_[j]), set_.limit_fraction * robot_.max_velocity()[j],
+                                set_.limit_fraction * robot_.max_acceleration()[j])
+                      .duration);
+  duration = std::max(duration, 0.2) * slow_;
+  const Lspb law = Lspb::fastest(1.0, 1.0 / (0.5 * duration), 1.0 / (0.25 * duration * duration));
+  const Quat a(from.linear()), b(to.linear());
+  const int n = static_cast<int>(std::ceil(law.duration / dt_ - 1e-9));
+  for (int k = 1; k <= n; ++k) {
+    double s, sd, sdd;
+    law.at(k * dt_, s, sd, sdd);
+    if (!add(make_transform(from.translation(), a.slerp(s, b).toRotationMatrix()), seam_index, Phase::kCorner,
+             what))
+      return false;
+  }
+  return true;
+}
+
+}  // namespace planner
+}  // namespace weldtwin

@@ -1,0 +1,203 @@
+// The weld program under construction: its samples so far, the IK branch and roll chosen for a stretch of
+// seam (its stations, approach and departure reached within the margins and clear of the cell), and the
+// pieces a plan is made of (transits, approach and departure lines, welds, corners), each taken back when it
+// does not work out. Internal to the planner (planning/weld_planner.cpp).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <cstring>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "planning/ik_aubo.hpp"
+#include "planning/seam_geometry.hpp"
+#include "planning/weld_planner.hpp"
+
+namespace weldtwin {
+namespace planner {
+
+// How well a roll and an IK branch suit a stretch of seam.
+struct Choice {
+  bool ok = false;
+  double roll = 0.0;
+  int branch = -1;
+  double margin = -1.0;
+  JointVector q_start = JointVector::Zero();  ///< at the approach's first pose
+  Vec3 in_dir = Vec3::Zero(),
+       out_dir = Vec3::Zero();  ///< unit, from the weld's start (end) to the approach (departure) pose
+};
+
+// A configuration and whether the arc is on, bit for bit, as a key.
+using ConfigKey = std::array<double, 7>;
+struct ConfigKeyHash {
+  size_t operator()(const ConfigKey& k) const {
+    uint64_t h = 1469598103934665603ull;  // FNV-1a over the bits
+    for (double v : k) {
+      uint64_t bits;
+      std::memcpy(&bits, &v, sizeof bits);
+      h = (h ^ bits) * 1099511628211ull;
+    }
+    return static_cast<size_t>(h);
+  }
+};
+
+class Builder {
+ public:
+  // What a piece of trajectory did: ran (its limits are then checked), failed (a slower try may still work:
+  // a line whose samples jumped between IK branches), or was blocked (every route it knows collides; a
+  // slower try would meet the same).
+  enum class Ran { kOk, kFailed, kBlocked };
+  static Ran as_ran(bool ok) { return ok ? Ran::kOk : Ran::kFailed; }
+  static Ran as_ran(Ran ran) { return ran; }
+
+  Builder(const RobotModel& robot, const PlanSetting& setting, WeldPlan& plan)
+      : robot_(robot),
+        ik_(robot, "tcp"),
+        set_(setting),
+        plan_(plan),
+        q_(setting.start.value_or(setting.home)),
+        dt_(1.0 / setting.sample_hz) {}
+
+  const AuboIk& ik() const { return ik_; }
+  void set_branch(int branch) { branch_ = branch; }
+  const JointVector& q() const { return q_; }
+
+  // Margin of a solution: distance to the joint limits and to the shoulder, elbow and wrist singularities;
+  // negative when too close to any of them.
+  double margin(const IkSolution& s) const;
+
+  // Best roll and branch for the stretch [s0, s1] of a seam, including its approach pose. A fixed roll is
+  // the only candidate; `prefer_branch` wins ties (a corner can then be welded through).
+  Choice choose(const SeamGeometry& g, double s0, double s1, std::optional<double> fixed_roll,
+                int prefer_branch, bool any_will_do = false) const;
+
+  // What the arm passes through welding from station to station (each (s, q)) on branch `b` at `roll`: the
+  // stations, and between two whose configurations differ by more than `collision_step_rad` in some joint,
+  // poses of the seam between them (IK, not joint-space interpolation: round a tube the wrist swings a
+  // quarter radian from one station to the next, and the arm does not move straight in joint space).
+  std::vector<std::pair<JointVector, bool>> between_stations(
+      const SeamGeometry& g, double roll, int b,
+      const std::vector<std::pair<double, JointVector>>& stations) const;
+
+  // Where the trajectory stands, to take back a piece that did not work out.
+  struct Mark {
+    size_t samples = 0, problems = 0;
+    JointVector q = JointVector::Zero();
+    double t = 0.0;
+    int branch = 0;
+  };
+  Mark mark() const { return {plan_.samples.size(), plan_.problems.size(), q_, t_, branch_}; }
+  void rewind(const Mark& m);
+
+  // Whether any of the configurations (each with whether the arc is on) collides with the cell (never,
+  // without a collision test). What was hit is counted for the message of an unreachable seam.
+  bool collides(const std::vector<std::pair<JointVector, bool>>& qs) const;
+
+  // The cell's answer for q, asked once per configuration: the stretches a seam's split tries share their
+  // first stations and approach poses exactly (the same pose, the same IK), so the answer is remembered.
+  std::string collision(const JointVector& q, bool welding) const;
+
+  // A clear way to (or from) the weld pose `at` on branch `b`: back along the torch axis, or else straight
+  // up; the direction and the configuration at its far end, or nothing when both collide or leave the
+  // branch. Without a collision test, the torch axis.
+  std::optional<std::pair<Vec3, JointVector>> clear_way(const Iso3& at, int b,
+                                                        const JointVector& q_near) const;
+
+  // The collision that ruled out the best candidate since the last call, for a message ("" if none did).
+  std::string main_collision() const;
+
+  // The collision, if any, of the samples from index `from` on (every other one: 10 ms apart). Every one,
+  // as the replay watches them, would catch two links grazing for one sample of a fast transit (1 trial in
+  // 900 of the whole-table benchmark) at twice the planning time (median 0.19 -> 0.45 s over 100 trials).
+  std::string collision_since(size_t from) const;
+
+  // A transit to `to` (an approach's first pose, or home) that does not hit the cell: straight in joint
+  // space if that is free; otherwise out of here along a straight line (straight up, or back along the
+  // torch axis), across in joint space (directly, or by way of home, the arm folded up clear of the table),
+  // and into `to` along the same kind of line.
+  Ran transit(const JointVector& to, const std::string& what);
+
+  // here -> out (line) -> [home] -> in (joint space) -> there (line, ending at `to`). Records no problems.
+  bool leg_out_across_in(const Iso3& here, const Iso3& out, bool via_home, const Iso3& in, const Iso3& there,
+                         const JointVector& to, const std::string& what);
+
+  bool at_home(const JointVector& q) const { return (q - set_.home).cwiseAbs().maxCoeff() < 1e-9; }
+
+  // The IK branch that puts the TCP at T with the configuration q, or -1.
+  int branch_of(const Iso3& T, const JointVector& q) const;
+
+  void problem(const std::string& what) { plan_.problems.push_back(what); }
+
+  // Runs a piece of trajectory; if it fails, or breaks a joint velocity or acceleration limit, the piece is
+  // taken back and, unless it is a weld (whose speed is the spec's), tried again at half and a quarter of
+  // the speed. Returns false, with the problem recorded, when no try works.
+  template <typename Piece>
+  bool checked(Piece piece, bool is_weld, const std::string& what);
+
+  // One sample: the configuration nearest the current one that puts the TCP at `T`.
+  bool add(const Iso3& T, int seam, Phase phase, const std::string& what);
+
+  // Joint-space LSPB to `to`, as fast as the scaled limits allow, every joint on the same profile.
+  void joint_move(const JointVector& to);
+
+  // Straight TCP line at fixed orientation (approach, departure), arc off.
+  bool line(const Iso3& from, const Iso3& to, Phase phase, const std::string& what);
+
+  // The seam itself, arc on: LSPB along its arc length at the weld speed (docs/design.md's timing law).
+  bool weld(const SeamGeometry& g, double s0, double s1, double roll, int seam_index);
+
+  // Turning the torch at a corner where two seams meet, the TCP standing still on the corner, arc on.
+  bool corner(const Iso3& from, const Iso3& to, int seam_index, const std::string& what);
+
+ private:
+  const RobotModel& robot_;
+  AuboIk ik_;
+  const PlanSetting& set_;
+  WeldPlan& plan_;
+  JointVector q_;
+  double dt_;
+  double t_ = 0.0;
+  double slow_ = 1.0;  ///< duration factor of the piece being tried (checked())
+  int branch_ = 0;     ///< IK branch of the seam being welded
+  mutable std::unordered_map<ConfigKey, std::string, ConfigKeyHash> answers_;  ///< the cell's, by q
+  mutable std::string last_hit_;                                               ///< the latest collision found
+  mutable std::string rejected_hit_;  ///< what ruled out the best candidate since main_collision()
+  mutable double rejected_margin_ = -1.0;
+};
+
+template <typename Piece>
+bool Builder::checked(Piece piece, bool is_weld, const std::string& what) {
+  const Mark start = mark();
+  const size_t n0 = start.samples, p0 = start.problems;
+  std::vector<std::string> why;
+  for (double scale : {1.0, 2.0, 4.0}) {
+    slow_ = scale;
+    const Ran ran = as_ran(piece());
+    if (ran == Ran::kOk) {
+      const size_t from = n0 >= 2 ? n0 - 2 : 0;
+      const std::vector<PlanSample> window(plan_.samples.begin() + static_cast<long>(from),
+                                           plan_.samples.end());
+      why = check_joint_limits(window, robot_, set_.sample_hz);
+      if (why.empty()) {
+        slow_ = 1.0;
+        return true;
+      }
+    } else {
+      why.assign(plan_.problems.begin() + static_cast<long>(p0), plan_.problems.end());
+    }
+    rewind(start);
+    if (is_weld || ran == Ran::kBlocked) break;
+  }
+  slow_ = 1.0;
+  for (const std::string& w : why)
+    problem(is_weld && w.rfind("joint", 0) == 0 ? what + " cannot be welded at its speed: " + w : w);
+  if (why.empty()) problem(what + ": failed");
+  return false;
+}
+
+}  // namespace planner
+}  // namespace weldtwin
