@@ -137,6 +137,9 @@ class Builder {
   // the speed. Returns false, with the problem recorded, when no try works.
   template <typename Piece>
   bool checked(Piece piece, bool is_weld, const std::string& what);
+  // The kind of the last piece that `checked` gave up on: over a joint's velocity or acceleration limit,
+  // or blocked (no route, or a pose on it out of reach).
+  PlanFailure last_failure() const { return last_failure_; }
 
   // One sample: the configuration nearest the current one that puts the TCP at `T`.
   bool add(const Iso3& T, int seam, Phase phase, const std::string& what);
@@ -167,6 +170,7 @@ class Builder {
   mutable std::string last_hit_;                                               ///< the latest collision found
   mutable std::string rejected_hit_;  ///< what ruled out the best candidate since main_collision()
   mutable double rejected_margin_ = -1.0;
+  PlanFailure last_failure_ = PlanFailure::kNone;
 };
 
 template <typename Piece>
@@ -174,28 +178,31 @@ bool Builder::checked(Piece piece, bool is_weld, const std::string& what) {
   const Mark start = mark();
   const size_t n0 = start.samples, p0 = start.problems;
   std::vector<std::string> why;
+  bool over_limits = false;  // `why` says which joint limits the piece broke (else: why it did not run)
   for (double scale : {1.0, 2.0, 4.0}) {
     slow_ = scale;
     const Ran ran = as_ran(piece());
     if (ran == Ran::kOk) {
       const size_t from = n0 >= 2 ? n0 - 2 : 0;
-      const std::vector<PlanSample> window(plan_.samples.begin() + static_cast<long>(from),
-                                           plan_.samples.end());
-      why = check_joint_limits(window, robot_, set_.sample_hz);
+      why = check_joint_limits(plan_.samples.data() + from, plan_.samples.size() - from, robot_,
+                               set_.sample_hz);
+      over_limits = !why.empty();
       if (why.empty()) {
         slow_ = 1.0;
         return true;
       }
     } else {
       why.assign(plan_.problems.begin() + static_cast<long>(p0), plan_.problems.end());
+      over_limits = false;
     }
     rewind(start);
     if (is_weld || ran == Ran::kBlocked) break;
   }
   slow_ = 1.0;
   for (const std::string& w : why)
-    problem(is_weld && w.rfind("joint", 0) == 0 ? what + " cannot be welded at its speed: " + w : w);
+    problem(is_weld && over_limits ? what + " cannot be welded at its speed: " + w : w);
   if (why.empty()) problem(what + ": failed");
+  last_failure_ = over_limits ? PlanFailure::kJointLimits : PlanFailure::kBlockedMove;
   return false;
 }
 

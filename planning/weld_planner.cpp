@@ -314,7 +314,7 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
       if (nominal_problem.empty()) {
         nominal_problem = problem;
         nominal_split_failed = split_failed;
-        nominal_kind = !split_failed    ? PlanFailure::kBlockedMove
+        nominal_kind = !split_failed    ? b.last_failure()
                        : split_collided ? PlanFailure::kCollides
                                         : PlanFailure::kOutOfReach;
       }

@@ -211,6 +211,23 @@ TEST(WeldPlanner, UnreachableSeamsAreNamed) {
   EXPECT_NE(far.problems.front().find("unreachable"), std::string::npos);
 }
 
+// A seam asked at a speed the arm cannot follow (0.2 m/s, 25 times the spec's) is refused by name
+// with the joint limit it breaks, as a joint-limit failure; at its spec's speed it plans.
+TEST(WeldPlanner, ASeamTooFastForTheJointsIsRefusedWithTheLimitItBreaks) {
+  const RobotModel robot = load_cell_robot(CellSpec::load(test::repo("scenes/cells/default.yaml")));
+  PartSpec part = PartSpec::load(test::repo("scenes/parts/tube_on_plate.yaml"));
+  part.seams.resize(1);
+  const Iso3 T = planar_pose(0.48, 0.06, 0.0, 0.0);
+  ASSERT_TRUE(plan_welds(part, T, robot).ok());
+  part.seams[0].speed_m_s = 0.2;
+  const WeldPlan plan = plan_welds(part, T, robot);
+  ASSERT_FALSE(plan.ok());
+  EXPECT_EQ(plan.failure, PlanFailure::kJointLimits) << plan_failure_name(plan.failure);
+  EXPECT_EQ(plan.problems.front().rfind("seam '" + part.seams[0].name + "'", 0), 0u) << plan.problems.front();
+  EXPECT_NE(plan.problems.front().find("cannot be welded at its speed: joint "), std::string::npos)
+      << plan.problems.front();
+}
+
 // A seam the arm cannot weld at the spec's travel angle: a stand-in cell in which any torch pushing more than
 // 5 deg hits something, the torch roll fixed. The planner welds it dragging, at the window's edge, and says
 // so; told to keep to the spec, it refuses the seam. Angles measured here from the torch axis, independently
