@@ -31,8 +31,8 @@ Choice Builder::choose(const SeamGeometry& g, double s0, double s1, std::optiona
     std::array<double, 8> worst;
     worst.fill(std::numeric_limits<double>::infinity());
     std::array<JointVector, 8> last, first;
-    std::array<std::vector<std::pair<double, JointVector>>, 8>
-        stations_q;  // (s, q) of each station, for the collision test of a winner
+    std::array<std::vector<std::pair<JointVector, bool>>, 8>
+        stations_q;  // for the collision test of a winner
     // Stations along the stretch, plus its approach (k = -1) and departure (k = stations + 1) poses.
     for (int k = -1; k <= stations + 1; ++k) {
       const Iso3 pose = k < 0          ? backed_off(g.tcp(s0, roll), set_.approach_m)
@@ -48,7 +48,7 @@ Choice Builder::choose(const SeamGeometry& g, double s0, double s1, std::optiona
         worst[static_cast<size_t>(b)] = std::min(worst[static_cast<size_t>(b)], m);
         if (s.valid) last[static_cast<size_t>(b)] = s.q;
         if (set_.collision && m >= 0 && k >= 0 && k <= stations)
-          stations_q[static_cast<size_t>(b)].emplace_back(s0 + (s1 - s0) * k / stations, s.q);
+          stations_q[static_cast<size_t>(b)].emplace_back(s.q, true);
         if (k < 0) first[static_cast<size_t>(b)] = s.q;
       }
       // Stop on this roll once no branch can still win.
@@ -65,7 +65,8 @@ Choice Builder::choose(const SeamGeometry& g, double s0, double s1, std::optiona
           rejected_hit_ = last_hit_;
         }
       };
-      if (collides(between_stations(g, roll, b, stations_q[static_cast<size_t>(b)]))) {
+      // The stations, the ways in and out, then (the most configurations) what lies between the stations.
+      if (collides(stations_q[static_cast<size_t>(b)])) {
         rejected();
         continue;
       }
@@ -75,6 +76,10 @@ Choice Builder::choose(const SeamGeometry& g, double s0, double s1, std::optiona
         if (!last_hit_.empty()) rejected();
         continue;
       }
+      if (!clear_along(g, s0, s1, roll, b, first[static_cast<size_t>(b)])) {
+        rejected();
+        continue;
+      }
       best = {true, roll, b, m, in->second, in->first, out->first};
     }
     if (any_will_do && best.ok) return best;  // feasibility is all the caller asks
@@ -82,27 +87,52 @@ Choice Builder::choose(const SeamGeometry& g, double s0, double s1, std::optiona
   return best;
 }
 
-std::vector<std::pair<JointVector, bool>> Builder::between_stations(
-    const SeamGeometry& g, double roll, int b,
-    const std::vector<std::pair<double, JointVector>>& stations) const {
-  std::vector<std::pair<JointVector, bool>> out;
-  for (size_t k = 0; k < stations.size(); ++k) {
-    if (k > 0) {
-      const auto& [sa, qa] = stations[k - 1];
-      const auto& [sb, qb] = stations[k];
-      const double change = (qb - qa).cwiseAbs().maxCoeff();
-      const int n = std::min(64, static_cast<int>(std::ceil(change / set_.collision_step_rad - 1e-9)));
-      JointVector prev = qa;
-      for (int i = 1; i < n; ++i) {
-        const IkSolution sol = ik_.solve_branch(g.tcp(sa + (sb - sa) * i / n, roll), b, prev[5]);
-        if (!sol.valid) continue;  // the stations on both sides were reached; the check is the point
-        out.emplace_back(sol.q, true);
-        prev = sol.q;
+bool Builder::clear_along(const SeamGeometry& g, double s0, double s1, double roll, int b,
+                          const JointVector& q_near) const {
+  if (!set_.collision) return true;
+  // Grid points every kAlongStep_m from the seam's start, so that the stretches tried for one seam (a split's
+  // bisection tries many ends from one start) share their inner pieces, and each piece is asked once.
+  std::vector<double> at{s0};
+  for (double s = (std::floor(s0 / kAlongStep_m + 1e-9) + 1) * kAlongStep_m; s < s1 - 1e-9; s += kAlongStep_m)
+    at.push_back(s);
+  at.push_back(s1);
+  JointVector qa = q_near;
+  bool have_a = false;
+  for (size_t k = 0; k < at.size(); ++k) {
+    const IkSolution end = ik_.solve_branch(g.tcp(at[k], roll), b, qa[5]);
+    if (!end.valid) {  // the stations were reached; a pose between them that is not is the stations' matter
+      have_a = false;
+      continue;
+    }
+    if (have_a) {
+      std::array<double, 12> key;
+      for (int j = 0; j < 6; ++j)
+        key[static_cast<size_t>(j)] = qa[j], key[static_cast<size_t>(j + 6)] = end.q[j];
+      auto it = along_answers_.find(key);
+      if (it == along_answers_.end()) {
+        std::string hit;
+        const double change = (end.q - qa).cwiseAbs().maxCoeff();
+        const int n = std::min(64, static_cast<int>(std::ceil(change / set_.collision_step_rad - 1e-9)));
+        JointVector prev = qa;
+        for (int i = 1; i < n && hit.empty(); ++i) {
+          const IkSolution sol =
+              ik_.solve_branch(g.tcp(at[k - 1] + (at[k] - at[k - 1]) * i / n, roll), b, prev[5]);
+          if (!sol.valid) continue;
+          hit = collision(sol.q, true);
+          prev = sol.q;
+        }
+        if (along_answers_.size() > 200000) along_answers_.clear();
+        it = along_answers_.emplace(key, hit).first;
+      }
+      if (!it->second.empty()) {
+        last_hit_ = it->second;
+        return false;
       }
     }
-    out.emplace_back(stations[k].second, true);
+    qa = end.q;
+    have_a = true;
   }
-  return out;
+  return true;
 }
 
 void Builder::rewind(const Mark& m) {

@@ -34,7 +34,8 @@ struct Choice {
 // A configuration and whether the arc is on, bit for bit, as a key.
 using ConfigKey = std::array<double, 7>;
 struct ConfigKeyHash {
-  size_t operator()(const ConfigKey& k) const {
+  template <size_t N>
+  size_t operator()(const std::array<double, N>& k) const {
     uint64_t h = 1469598103934665603ull;  // FNV-1a over the bits
     for (double v : k) {
       uint64_t bits;
@@ -75,13 +76,12 @@ class Builder {
   Choice choose(const SeamGeometry& g, double s0, double s1, std::optional<double> fixed_roll,
                 int prefer_branch, bool any_will_do = false) const;
 
-  // What the arm passes through welding from station to station (each (s, q)) on branch `b` at `roll`: the
-  // stations, and between two whose configurations differ by more than `collision_step_rad` in some joint,
-  // poses of the seam between them (IK, not joint-space interpolation: round a tube the wrist swings a
-  // quarter radian from one station to the next, and the arm does not move straight in joint space).
-  std::vector<std::pair<JointVector, bool>> between_stations(
-      const SeamGeometry& g, double roll, int b,
-      const std::vector<std::pair<double, JointVector>>& stations) const;
+  // Whether what the arm passes through welding the stretch [s0, s1] on branch `b` at `roll` is clear of the
+  // cell: poses of the seam (IK, not joint-space interpolation: round a tube the wrist swings a quarter
+  // radian from one 12 mm station to the next, and the arm does not move straight in joint space) at most
+  // `collision_step_rad` apart in every joint. `q_near`: a configuration near the stretch's start.
+  bool clear_along(const SeamGeometry& g, double s0, double s1, double roll, int b,
+                   const JointVector& q_near) const;
 
   // Where the trajectory stands, to take back a piece that did not work out.
   struct Mark {
@@ -167,8 +167,11 @@ class Builder {
   double slow_ = 1.0;  ///< duration factor of the piece being tried (checked())
   int branch_ = 0;     ///< IK branch of the seam being welded
   mutable std::unordered_map<ConfigKey, std::string, ConfigKeyHash> answers_;  ///< the cell's, by q
-  mutable std::string last_hit_;                                               ///< the latest collision found
-  mutable std::string rejected_hit_;  ///< what ruled out the best candidate since main_collision()
+  /// The cell's answer for the welding between two configurations of one seam (clear_along), by both.
+  mutable std::unordered_map<std::array<double, 12>, std::string, ConfigKeyHash> along_answers_;
+  static constexpr double kAlongStep_m = 0.012;  ///< clear_along's grid on the seam
+  mutable std::string last_hit_;                 ///< the latest collision found
+  mutable std::string rejected_hit_;             ///< what ruled out the best candidate since main_collision()
   mutable double rejected_margin_ = -1.0;
   PlanFailure last_failure_ = PlanFailure::kNone;
 };

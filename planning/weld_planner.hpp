@@ -45,7 +45,7 @@ struct PlanSetting {
   /// Configurations are asked of `collision` at most this far apart (the largest joint change) along a weld
   /// between its stations and along paths found in joint space (transits: every other sample): a round seam's
   /// stations are 12 mm apart on the part while the torch swings tens of millimetres round it between them.
-  double collision_step_rad = 0.01;
+  double collision_step_rad = 0.02;
   /// When a seam cannot be welded as its spec says, try the other ways it allows: the edges of its work and
   /// travel angle windows, and (a free roll) the other direction; a way whose transit, approach or departure
   /// is blocked is taken back and the seam tried from its other end, and then the seams still to weld are
