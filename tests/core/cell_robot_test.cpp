@@ -86,13 +86,17 @@ TEST(CellRobot, ACellAddsItsToolingToTheRobotFile) {
   }
 }
 
-// The 22 deg swan-neck torch (a robot file a cell can take instead of its own): the TCP, found by FK through
-// the tooling links, lies where the neck's geometry puts it, computed here from the flange alone: 120 mm
-// along the flange axis to the bend, then 150 mm (110 neck, 25 nozzle, 15 stick-out) along the flange axis
-// turned 22 deg about the flange's x; the TCP's z is the bent axis, and the nozzle ends 15 mm before the TCP.
-TEST(CellRobot, TheSwanNeckTorchsTcpLiesAtTheEndOfItsBentNeck) {
+// The swan-neck torches, 22 and 45 deg (robot files a cell can take instead of its own): the TCP, found by FK
+// through the tooling links, lies where the neck's geometry puts it, computed here from the flange alone:
+// 120 mm along the flange axis to the bend, then 150 mm (110 neck, 25 nozzle, 15 stick-out) along the flange
+// axis turned by the bend about the flange's x; the TCP's z is the bent axis, and the nozzle ends 15 mm
+// before the TCP.
+class SwanNeck : public ::testing::TestWithParam<int> {};
+
+TEST_P(SwanNeck, TheTcpLiesAtTheEndOfItsBentNeck) {
+  const int bend_deg = GetParam();
   CellSpec cell = CellSpec::load(test::repo("scenes/cells/default.yaml"));
-  cell.use_robot_file(test::repo("scenes/robots/aubo_i5_bent22_cell.yaml"));
+  cell.use_robot_file(test::repo("scenes/robots/aubo_i5_bent" + std::to_string(bend_deg) + "_cell.yaml"));
   ASSERT_EQ(cell.tooling.size(), 4u);  // the robot file's tooling replaces the cell's
   const RobotModel robot = load_cell_robot(cell);
   const RobotLink& torch = robot.links()[static_cast<size_t>(robot.require_link("torch"))];
@@ -100,7 +104,7 @@ TEST(CellRobot, TheSwanNeckTorchsTcpLiesAtTheEndOfItsBentNeck) {
   ASSERT_EQ(torch.collision.size(), 5u);
   const LinkGeometry& nozzle = torch.collision.back();
   ASSERT_EQ(nozzle.type, LinkGeometry::Type::kCylinder);
-  const double bend = deg2rad(22.0);
+  const double bend = deg2rad(bend_deg);
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> u(-kPi, kPi);
   for (int i = 0; i < 50; ++i) {
@@ -120,6 +124,8 @@ TEST(CellRobot, TheSwanNeckTorchsTcpLiesAtTheEndOfItsBentNeck) {
     EXPECT_LT((geom.translation() + 0.5 * nozzle.size.y() * axis - (tip - 0.015 * axis)).norm(), 2e-6);
   }
 }
+
+INSTANTIATE_TEST_SUITE_P(CellRobot, SwanNeck, ::testing::Values(22, 45));
 
 std::string load_error(const std::string& path) {
   try {
