@@ -185,7 +185,8 @@ int main(int argc, char** argv) {
   bc->add_option(
         "--robot", bench.robot,
         "robot file (arm and tooling) for every cell, e.g. scenes/robots/aubo_i5_bent22_cell.yaml for "
-        "the 22 deg swan-neck torch (default: each cell's own)")
+        "the 22 deg swan-neck torch or scenes/robots/aubo_i5_cell.yaml for the straight one (default: each "
+        "cell's own, the 45 deg swan neck)")
       ->check(CLI::ExistingFile);
   std::string placement;
   bc->add_option("--placement", placement,

@@ -20,7 +20,8 @@ class PartClearance {
   /// The smallest distance [m] from a robot surface to the part at the state `d` (after kinematics), negative
   /// when inside, `range_m` when nothing is nearer; `geom` names the nearest robot geom ("" if none).
   /// `hint`: where the nearest point was found last (in and out), for a sequence of nearby states — the
-  /// search starts there with a tight bound. The answer is the same with or without it.
+  /// search starts there with a tight bound. The answer is the same with or without it, to within Embree's
+  /// single precision (nanometres: its queries prune in float, bounded by the best distance so far).
   struct Hint {
     int chunk = -1, point = -1;
   };

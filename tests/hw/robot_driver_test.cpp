@@ -31,9 +31,10 @@ const RobotModel& robot() {
 const JointVector kHome = PlanSetting().home;
 
 // A 2 s move from home at 200 Hz, smooth (cosine) in every joint.
-JointTrajectory a_move(double seconds = 2.0) {
+JointTrajectory a_move(
+    double seconds = 2.0,
+    const JointVector& delta = (JointVector() << 0.4, -0.2, 0.3, 0.25, -0.35, 0.5).finished()) {
   JointTrajectory t;
-  const JointVector delta = (JointVector() << 0.4, -0.2, 0.3, 0.25, -0.35, 0.5).finished();
   const int n = static_cast<int>(seconds / t.dt_s);
   for (int i = 0; i <= n; ++i) t.q.push_back(kHome + delta * 0.5 * (1 - std::cos(kPi * i / n)));
   return t;
@@ -359,7 +360,11 @@ TEST(SimDriver, RunsATrajectoryInTheTwinAndFailsOneIntoTheTable) {
   const Mesh mesh = load_mesh(cell.part.mesh_path);
   SimRobotInputs sim{cell.world.get(), &cell.part, &mesh, cell.layout.T_base_part};
   auto driver = make_robot_driver("sim", cell.robot, sim, quick());
-  const JointTrajectory t = a_move();
+  // A move clear of the cell (wrist 2 turned the other way: the default move swings the 45 deg neck into a
+  // clamp arm), as the cell's checker says at every sample.
+  const JointTrajectory t = a_move(2.0, (JointVector() << 0.4, -0.2, 0.3, 0.25, 0.35, 0.5).finished());
+  const CollisionChecker checker(*cell.world);
+  for (size_t i = 0; i < t.q.size(); ++i) ASSERT_EQ(checker(t.q[i]), "") << "sample " << i;
   const ExecutionLog log = driver->execute(t);
   ASSERT_EQ(log.joints.size(), t.q.size());
   for (size_t i = 0; i < t.q.size(); i += 20)
@@ -367,7 +372,6 @@ TEST(SimDriver, RunsATrajectoryInTheTwinAndFailsOneIntoTheTable) {
   EXPECT_LT((driver->joint_positions() - t.q.back()).cwiseAbs().maxCoeff(), 2e-3);
 
   // From where it stands, down into the table (the shoulder forward until the checker says so).
-  const CollisionChecker checker(*cell.world);
   JointVector end = t.q.back();
   while (checker(end).empty() && end[1] < 2.5) end[1] += 0.05;
   ASSERT_FALSE(checker(end).empty());

@@ -283,7 +283,10 @@ TEST(WeldPlanner, UsesTheSeamsAngleWindowWhereTheNominalCannotBeWelded) {
 // (3 mm) and open along the approach line only, so that the approach is clear and any transit into it
 // collides. Pushing at 20 deg, the other direction's departure from that end passes the ball 26 mm off.
 TEST(WeldPlanner, TakesBackAWayWhoseTransitIsBlockedAndWeldsFromTheOtherEnd) {
-  const RobotModel robot = load_cell_robot(CellSpec::load(test::repo("scenes/cells/default.yaml")));
+  // The 22 deg neck, whose ways in and out the stand-in is laid out for.
+  CellSpec cell = CellSpec::load(test::repo("scenes/cells/default.yaml"));
+  cell.use_robot_file(test::repo("scenes/robots/aubo_i5_bent22_cell.yaml"));
+  const RobotModel robot = load_cell_robot(cell);
   PartSpec part = PartSpec::load(test::repo("scenes/parts/tube_on_plate.yaml"));
   part.seams.resize(1);
   Seam& seam = part.seams.front();
@@ -395,7 +398,7 @@ TEST(WeldPlanner, WeldsAnotherSeamFirstWhenTheNextOneIsBlockedFromHere) {
 }
 
 // Round a tube the wrist swings a quarter radian from one 12 mm station of the seam to the next: what the
-// arm passes through between stations is checked too. The stand-in obstacle: a ball of 4 mm round the point
+// arm passes through between stations is checked too. The stand-in obstacle: a ball of 6 mm round the point
 // 0.2 m up the torch from the TCP where, in the free plan, that point moves fastest while welding (it sweeps
 // tens of millimetres from station to station there). The plan against it welds no sample whose torch point
 // is inside the ball.
@@ -418,7 +421,7 @@ TEST(WeldPlanner, ChecksWhatTheArmPassesThroughBetweenStations) {
   ASSERT_GT(fastest, 0.0);
   const int tcp = robot.require_link("tcp");
   const auto inside = [&](const Iso3& T_base_tcp) {
-    return (torch_point(T_base_tcp) - centre).norm() < 0.004;
+    return (torch_point(T_base_tcp) - centre).norm() < 0.006;
   };
   PlanSetting setting;
   setting.collision = [&](const JointVector& q, bool welding) -> std::string {

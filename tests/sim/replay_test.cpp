@@ -119,7 +119,9 @@ TEST(PartClearance, StartingFromTheLastNearestPointChangesNoAnswer) {
     std::string plain_geom, hinted_geom;
     const double plain = clearance.clearance(d.get(), &plain_geom);
     const double hinted = clearance.clearance(d.get(), &hinted_geom, &hint);
-    ASSERT_EQ(plain, hinted) << "sample " << k;
+    // The same answer to within Embree's single precision (its point queries prune in float, bounded by the
+    // best distance so far, which the hint makes tighter): 10 nm, against clearances judged at 0.25 mm.
+    ASSERT_NEAR(plain, hinted, 1e-8) << "sample " << k;
     ASSERT_EQ(plain_geom, hinted_geom) << "sample " << k;
     near += plain < 0.05;
     if (k % 300 == 0) hint = PartClearance::Hint{};  // now and then from nothing again
