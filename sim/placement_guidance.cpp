@@ -141,12 +141,14 @@ PlacementSuggestion suggest_placement(const CellSpec& cell_file, const PartSpec&
       screen.place(l);
       return plan_welds(part, l.T_base_part, robot, quick).ok();
     };
+    // Off by up to the tolerance along x and along y: the square's sides and its corners.
     const double d = setting.placement_tolerance_m, a = setting.placement_tolerance_rad;
-    if (!stations_clear(c.x, c.y, c.yaw) || !stations_clear(c.x + d, c.y, c.yaw) ||
-        !stations_clear(c.x - d, c.y, c.yaw) || !stations_clear(c.x, c.y + d, c.yaw) ||
-        !stations_clear(c.x, c.y - d, c.yaw) || !stations_clear(c.x, c.y, c.yaw + a) ||
-        !stations_clear(c.x, c.y, c.yaw - a))
-      continue;
+    bool clear = stations_clear(c.x, c.y, c.yaw) && stations_clear(c.x, c.y, c.yaw + a) &&
+                 stations_clear(c.x, c.y, c.yaw - a);
+    for (int i = -1; clear && i <= 1; ++i)
+      for (int j = -1; clear && j <= 1; ++j)
+        if (i != 0 || j != 0) clear = stations_clear(c.x + i * d, c.y + j * d, c.yaw);
+    if (!clear) continue;
     // Planned in full and replayed, in the world with the part and its clamps there.
     ++out.verified;
     const MujocoWorld there(cell, part, robot, layout);

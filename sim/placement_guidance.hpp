@@ -29,7 +29,8 @@ struct GuidanceSetting {
   double retry_apart_m = 0.04;
   double retry_apart_rad = deg2rad(20);
   /// An operator puts a part down within about this much of where asked: a candidate is taken only when the
-  /// station test also passes this far off along x and y, and turned this far either way.
+  /// station test also passes this far off along x, along y and along both (the square's corners), and turned
+  /// this far either way.
   double placement_tolerance_m = 0.01;
   double placement_tolerance_rad = deg2rad(5);
   PlanSetting plan;  ///< the planner as the cell uses it (its collision test is set here)

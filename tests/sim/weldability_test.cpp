@@ -2,6 +2,8 @@
 // placements, the weldability map, and the placement suggested when a part does not weld where it lies.
 #include <gtest/gtest.h>
 
+#include <array>
+
 #include <cmath>
 #include <random>
 
@@ -199,6 +201,20 @@ TEST(Placement, TheSuggestionWeldsWhereThePartDoesNot) {
   ASSERT_TRUE(plan.ok()) << plan.problems.front();
   const ReplayResult replay = replay_plan(world, cell.robot, plan, cell.part, mesh, moved.T_base_part);
   EXPECT_TRUE(replay.passed()) << replay.failures.front();
+  // Put down off as an operator would, up to 10 mm along x and y (the corners of that square) and turned 5
+  // deg either way: the stations, approach and departure are still reached clear of the cell.
+  const GuidanceSetting tolerance;
+  for (const auto& [dx, dy, turn] : std::vector<std::array<double, 3>>{
+           {1, 1, 0}, {1, -1, 0}, {-1, 1, 0}, {-1, -1, 0}, {0, 0, 1}, {0, 0, -1}}) {
+    Iso3 put = s.T_base_part;
+    put.translation() += tolerance.placement_tolerance_m * Vec3(dx, dy, 0);
+    put.linear() = Eigen::AngleAxisd(turn * tolerance.placement_tolerance_rad, Vec3::UnitZ()) * put.linear();
+    const CellLayout off = layout_at(spec, cell.part, put);
+    if (!layout_problem(spec, cell.part, off).empty()) continue;  // no room there: not a place to put it
+    const MujocoWorld off_world(spec, cell.part, cell.robot, off);
+    const WeldPlan quick = plan_in(off_world, cell.part, mesh, cell.robot, off.T_base_part, true);
+    EXPECT_TRUE(quick.ok()) << dx << " " << dy << " " << turn << ": " << quick.problems.front();
+  }
   // What it says is what it is: the move and the turn.
   EXPECT_NEAR(s.move_m, (s.T_base_part.translation() - cell.layout.T_base_part.translation()).norm(), 1e-9);
   EXPECT_NEAR(std::remainder(yaw_of(s.T_base_part) - yaw_of(cell.layout.T_base_part) - s.turn_rad, 2 * kPi),
