@@ -25,7 +25,7 @@ Choice Builder::choose(const SeamGeometry& g, double s0, double s1, std::optiona
   } else {
     for (double r = -kPi; r < kPi - 1e-9; r += set_.roll_step_rad) rolls.push_back(r);
   }
-  const int stations = std::max(6, static_cast<int>((s1 - s0) / 0.012));
+  const int stations = std::max(6, static_cast<int>((s1 - s0) / kStationSpacing_m));
   Choice best;
   for (double roll : rolls) {
     std::array<double, 8> worst;
@@ -90,10 +90,11 @@ Choice Builder::choose(const SeamGeometry& g, double s0, double s1, std::optiona
 bool Builder::clear_along(const SeamGeometry& g, double s0, double s1, double roll, int b,
                           const JointVector& q_near) const {
   if (!set_.collision) return true;
-  // Grid points every kAlongStep_m from the seam's start, so that the stretches tried for one seam (a split's
-  // bisection tries many ends from one start) share their inner pieces, and each piece is asked once.
+  // Grid points every kStationSpacing_m from the seam's start, so that the stretches tried for one seam (a
+  // split's bisection tries many ends from one start) share their inner pieces, and each piece is asked once.
   std::vector<double> at{s0};
-  for (double s = (std::floor(s0 / kAlongStep_m + 1e-9) + 1) * kAlongStep_m; s < s1 - 1e-9; s += kAlongStep_m)
+  for (double s = (std::floor(s0 / kStationSpacing_m + 1e-9) + 1) * kStationSpacing_m; s < s1 - 1e-9;
+       s += kStationSpacing_m)
     at.push_back(s);
   at.push_back(s1);
   JointVector qa = q_near;

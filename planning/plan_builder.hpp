@@ -169,9 +169,10 @@ class Builder {
   mutable std::unordered_map<ConfigKey, std::string, ConfigKeyHash> answers_;  ///< the cell's, by q
   /// The cell's answer for the welding between two configurations of one seam (clear_along), by both.
   mutable std::unordered_map<std::array<double, 12>, std::string, ConfigKeyHash> along_answers_;
-  static constexpr double kAlongStep_m = 0.012;  ///< clear_along's grid on the seam
-  mutable std::string last_hit_;                 ///< the latest collision found
-  mutable std::string rejected_hit_;             ///< what ruled out the best candidate since main_collision()
+  /// Stations of a stretch at most this far apart on the seam; also clear_along's grid.
+  static constexpr double kStationSpacing_m = 0.012;
+  mutable std::string last_hit_;      ///< the latest collision found
+  mutable std::string rejected_hit_;  ///< what ruled out the best candidate since main_collision()
   mutable double rejected_margin_ = -1.0;
   PlanFailure last_failure_ = PlanFailure::kNone;
 };
