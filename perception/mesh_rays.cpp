@@ -2,6 +2,7 @@
 
 #include <embree3/rtcore.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -39,6 +40,7 @@ struct MeshRays::Impl {
   RTCScene scene = nullptr;
   std::vector<Vec3> vertices;
   std::vector<Eigen::Vector3i> faces;
+  std::vector<Vec3> normals;  ///< per face, outward by the winding (zero for a degenerate face)
 };
 
 namespace {
@@ -85,6 +87,12 @@ MeshRays::MeshRays(const Mesh& mesh) : impl_(std::make_unique<Impl>()) {
   rtcCommitGeometry(geom);
   impl_->vertices = mesh.vertices;
   impl_->faces = mesh.faces;
+  impl_->normals.reserve(mesh.faces.size());
+  for (const Eigen::Vector3i& fi : mesh.faces) {
+    const Vec3 &a = mesh.vertices[static_cast<size_t>(fi[0])], &b = mesh.vertices[static_cast<size_t>(fi[1])],
+               &c = mesh.vertices[static_cast<size_t>(fi[2])];
+    impl_->normals.push_back((b - a).cross(c - a).normalized());
+  }
   rtcAttachGeometry(impl_->scene, geom);
   rtcReleaseGeometry(geom);
   rtcCommitScene(impl_->scene);
@@ -131,11 +139,51 @@ bool MeshRays::closest(const Vec3& p, double max_m, Vec3& point, Vec3& face_norm
   rtcPointQuery(impl_->scene, &query, &ctx, nearest_triangle, &nearest);
   if (nearest.best_sq >= max_m * max_m) return false;
   point = nearest.point;
-  const Eigen::Vector3i& f = impl_->faces[nearest.face];
-  const Vec3 &a = impl_->vertices[static_cast<size_t>(f[0])], &b = impl_->vertices[static_cast<size_t>(f[1])],
-             &c = impl_->vertices[static_cast<size_t>(f[2])];
-  face_normal = (b - a).cross(c - a).normalized();
+  face_normal = impl_->normals[nearest.face];
   return true;
+}
+
+namespace {
+
+struct WithinQuery {
+  const MeshRays* rays;
+  Vec3 p;
+  double radius_sq;
+  std::vector<unsigned>* faces;
+};
+
+bool collect_within(RTCPointQueryFunctionArguments* args) {
+  auto* q = static_cast<WithinQuery*>(args->userPtr);
+  if ((q->rays->closest_on_face(q->p, args->primID) - q->p).squaredNorm() <= q->radius_sq)
+    q->faces->push_back(args->primID);
+  return false;
+}
+
+}  // namespace
+
+void MeshRays::faces_within(const Vec3& p, double radius_m, std::vector<unsigned>& faces) const {
+  faces.clear();
+  RTCPointQuery query{};
+  query.x = static_cast<float>(p.x());
+  query.y = static_cast<float>(p.y());
+  query.z = static_cast<float>(p.z());
+  query.radius = std::nextafter(static_cast<float>(radius_m), std::numeric_limits<float>::infinity());
+  RTCPointQueryContext ctx;
+  rtcInitPointQueryContext(&ctx);
+  WithinQuery within{this, p, radius_m * radius_m, &faces};
+  rtcPointQuery(impl_->scene, &query, &ctx, collect_within, &within);
+  std::sort(faces.begin(), faces.end());
+}
+
+Vec3 MeshRays::closest_on_face(const Vec3& p, unsigned f) const {
+  const Eigen::Vector3i& fi = impl_->faces[f];
+  return closest_on_triangle(p, impl_->vertices[static_cast<size_t>(fi[0])],
+                             impl_->vertices[static_cast<size_t>(fi[1])],
+                             impl_->vertices[static_cast<size_t>(fi[2])]);
+}
+
+const Vec3& MeshRays::face_normal(unsigned f) const {
+  return impl_->normals[f];
 }
 
 bool MeshRays::inside(const Vec3& p) const {

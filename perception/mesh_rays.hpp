@@ -4,6 +4,7 @@
 #pragma once
 
 #include <memory>
+#include <vector>
 
 #include "perception/mesh_io.hpp"
 
@@ -23,6 +24,11 @@ class MeshRays {
   /// The surface point nearest `p` within `max_m`: false if there is none; else `point` and the outward
   /// normal of its face (the mesh's winding) are set.
   bool closest(const Vec3& p, double max_m, Vec3& point, Vec3& face_normal) const;
+  /// Every face with a point within `radius_m` of `p` (Embree's point query, not pruned), in index order.
+  void faces_within(const Vec3& p, double radius_m, std::vector<unsigned>& faces) const;
+  /// The point of face `f` nearest `p`, and the face's outward normal (the mesh's winding).
+  Vec3 closest_on_face(const Vec3& p, unsigned f) const;
+  const Vec3& face_normal(unsigned f) const;
   /// Whether `p` is inside the (closed) mesh: the parity of the surface crossings along three rays, by
   /// majority.
   bool inside(const Vec3& p) const;

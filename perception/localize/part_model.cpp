@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <map>
+#include <new>
 
 #include "core/parallel_for.hpp"
 #include "perception/localize/mesh_edges.hpp"
@@ -75,15 +76,14 @@ int PartModel::nearest(const Vec3& p) {
   int* slot = &cache[(static_cast<size_t>(iz) * static_cast<size_t>(cy) + static_cast<size_t>(iy)) *
                          static_cast<size_t>(cx) +
                      static_cast<size_t>(ix)];
-  int known = __atomic_load_n(slot, __ATOMIC_RELAXED);
-  if (known == -2) {
-    const Vec3 c =
-        cache_origin + cache_cell * Vec3(static_cast<double>(ix) + 0.5, static_cast<double>(iy) + 0.5,
-                                         static_cast<double>(iz) + 0.5);
-    double d2 = 0.0;
-    known = tree.nearest(c, d2);
-    __atomic_store_n(slot, known, __ATOMIC_RELAXED);
-  }
+  const int stored = __atomic_load_n(slot, __ATOMIC_RELAXED);
+  if (stored != 0) return stored - 2;
+  const Vec3 c =
+      cache_origin + cache_cell * Vec3(static_cast<double>(ix) + 0.5, static_cast<double>(iy) + 0.5,
+                                       static_cast<double>(iz) + 0.5);
+  double d2 = 0.0;
+  const int known = tree.nearest(c, d2);
+  __atomic_store_n(slot, known + 2, __ATOMIC_RELAXED);
   return known;
 }
 
@@ -125,6 +125,7 @@ void build_part_model(const Mesh& mesh, double min_z, const PartModelSetting& s,
   }
   model.height = model.hi.z();
   model.tree = PointTree(model.pts);
+  model.surface = std::make_unique<ClosestGrid>(rays, model.lo, model.hi, s.closest);
 
   // Distance of every sample to the nearest feature edge.
   model.edge_distance.assign(n, 1.0f);
@@ -267,8 +268,10 @@ void build_part_model(const Mesh& mesh, double min_z, const PartModelSetting& s,
   model.cx = static_cast<int>(ext.x() / model.cache_cell) + 1;
   model.cy = static_cast<int>(ext.y() / model.cache_cell) + 1;
   model.cz = static_cast<int>(ext.z() / model.cache_cell) + 1;
-  model.cache.assign(
-      static_cast<size_t>(model.cx) * static_cast<size_t>(model.cy) * static_cast<size_t>(model.cz), -2);
+  const size_t slots =
+      static_cast<size_t>(model.cx) * static_cast<size_t>(model.cy) * static_cast<size_t>(model.cz);
+  model.cache.reset(static_cast<int*>(std::calloc(slots, sizeof(int))));
+  if (!model.cache) throw std::bad_alloc();
 }
 
 }  // namespace weldtwin

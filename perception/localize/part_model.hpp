@@ -5,9 +5,11 @@
 // rays. Everything is in the part's resting frame: the mesh lifted so that its lowest vertex is at z = 0.
 #pragma once
 
+#include <cstdlib>
 #include <memory>
 #include <vector>
 
+#include "perception/localize/closest_grid.hpp"
 #include "perception/localize/grid2.hpp"
 #include "perception/localize/point_tree.hpp"
 #include "perception/mesh_io.hpp"
@@ -37,6 +39,7 @@ struct PartModelSetting {
   std::vector<double> beyond_m{0.006, 0.010, 0.015, 0.020};
   double beyond_step_m = 0.002;         ///< ... every this far along the edge [m]
   double beyond_clearance_share = 0.7;  ///< ... where the part is at least this share of that away
+  ClosestGridSetting closest;           ///< the surface fit's nearest points (closest_grid.hpp)
 };
 
 struct PartModel {
@@ -46,6 +49,7 @@ struct PartModel {
   std::vector<float> half_thickness, edge_distance;  ///< [m]
   PointTree tree;
   std::unique_ptr<MeshRays> rays;             ///< the mesh itself, resting on z = 0
+  std::unique_ptr<ClosestGrid> surface;       ///< its nearest points, the same answers as rays->closest
   Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();  ///< bounding box of the samples
   double radius = 0.0, height = 0.0;          ///< [m]
   double spacing_m = 0.002;                   ///< the samples' spacing [m]
@@ -72,7 +76,13 @@ struct PartModel {
   double cache_cell = 0.001, cache_margin = 0.015;
   Vec3 cache_origin = Vec3::Zero();
   int cx = 0, cy = 0, cz = 0;
-  std::vector<int> cache;
+  /// The grid's slots: 0 not asked yet, else the answer + 2. Zeroed pages straight from the system (calloc),
+  /// so that only the pages asked about are ever touched: the grid spans tens of megabytes, ICP asks about a
+  /// thin shell of it.
+  struct FreeSlots {
+    void operator()(int* p) const { std::free(p); }
+  };
+  std::unique_ptr<int[], FreeSlots> cache;
 };
 
 /// Builds the model of `mesh` lifted by -min_z (faces turned outwards first: a CAD file's winding is not to

@@ -49,7 +49,7 @@ double residuals(const std::vector<ScanPoint>& pts, const PartModel& m, const Is
   Vec3 at, normal;
   for (const ScanPoint& sp : pts) {
     const Vec3 x = P * sp.raw, xs = P * sp.smooth;
-    if (!m.rays->closest(xs, 2 * c, at, normal)) {
+    if (!m.surface->closest(xs, 2 * c, at, normal)) {
       cost += cap;
       if (view_nats) *view_nats += unexplained_nats(*s);
       continue;

@@ -1,0 +1,84 @@
+#include "perception/localize/closest_grid.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+#include <new>
+
+namespace weldtwin {
+namespace {
+
+constexpr double kRadiusSlack_m = 1e-9;  // rounding room on the candidate radius
+
+}  // namespace
+
+void ClosestGrid::FreeSlots::operator()(Cell** p) const {
+  std::free(p);
+}
+
+ClosestGrid::ClosestGrid(const MeshRays& rays, const Vec3& lo, const Vec3& hi, const ClosestGridSetting& s)
+    : rays_(rays), far_(s.far_m) {
+  origin_ = lo - Vec3::Constant(s.margin_m);
+  const Vec3 extent = hi - lo + Vec3::Constant(2 * s.margin_m);
+  cell_ =
+      std::max(s.cell_m, std::cbrt(extent.prod() / static_cast<double>(std::max<size_t>(1, s.max_cells))));
+  half_diagonal_ = 0.5 * std::sqrt(3.0) * cell_;
+  nx_ = static_cast<long>(extent.x() / cell_) + 1;
+  ny_ = static_cast<long>(extent.y() / cell_) + 1;
+  nz_ = static_cast<long>(extent.z() / cell_) + 1;
+  const size_t n = static_cast<size_t>(nx_) * static_cast<size_t>(ny_) * static_cast<size_t>(nz_);
+  slots_.reset(static_cast<Cell**>(std::calloc(n, sizeof(Cell*))));
+  if (!slots_) throw std::bad_alloc();
+}
+
+ClosestGrid::~ClosestGrid() = default;
+
+const ClosestGrid::Cell* ClosestGrid::cell_at(long ix, long iy, long iz) const {
+  Cell** slot = &slots_[(static_cast<size_t>(iz) * static_cast<size_t>(ny_) + static_cast<size_t>(iy)) *
+                            static_cast<size_t>(nx_) +
+                        static_cast<size_t>(ix)];
+  if (const Cell* known = __atomic_load_n(slot, __ATOMIC_ACQUIRE)) return known;
+  // The nearest point of any point x of the cell is at most |x - c| + d(c) <= h + d(c) from x, so within
+  // d(c) + 2h of the centre c: only faces that near can hold it.
+  auto cell = std::make_unique<Cell>();
+  const Vec3 c = origin_ + cell_ * Vec3(static_cast<double>(ix) + 0.5, static_cast<double>(iy) + 0.5,
+                                        static_cast<double>(iz) + 0.5);
+  cell->centre_distance_m = rays_.distance(c, far_);
+  if (std::isfinite(cell->centre_distance_m))
+    rays_.faces_within(c, cell->centre_distance_m + 2 * half_diagonal_ + kRadiusSlack_m, cell->faces);
+  Cell* expected = nullptr;
+  if (__atomic_compare_exchange_n(slot, &expected, cell.get(), false, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE)) {
+    const std::lock_guard<std::mutex> lock(made_mutex_);
+    made_.push_back(std::move(cell));
+    return made_.back().get();
+  }
+  return expected;  // another thread filled it first (with the same faces)
+}
+
+bool ClosestGrid::closest(const Vec3& p, double max_m, Vec3& point, Vec3& face_normal) const {
+  const Vec3 g = (p - origin_) / cell_;
+  if (!(g.x() >= 0 && g.y() >= 0 && g.z() >= 0 && g.x() < static_cast<double>(nx_) &&
+        g.y() < static_cast<double>(ny_) && g.z() < static_cast<double>(nz_)))
+    return rays_.closest(p, max_m, point, face_normal);
+  const Cell* cell = cell_at(static_cast<long>(g.x()), static_cast<long>(g.y()), static_cast<long>(g.z()));
+  if (!std::isfinite(cell->centre_distance_m)) return rays_.closest(p, max_m, point, face_normal);
+  if (cell->centre_distance_m - half_diagonal_ >= max_m) return false;  // nothing of the cell is that near
+  double best = max_m * max_m;
+  unsigned face = 0;
+  bool found = false;
+  for (unsigned f : cell->faces) {
+    const Vec3 q = rays_.closest_on_face(p, f);
+    const double d2 = (q - p).squaredNorm();
+    if (d2 < best) {
+      best = d2;
+      point = q;
+      face = f;
+      found = true;
+    }
+  }
+  if (found) face_normal = rays_.face_normal(face);
+  return found;
+}
+
+}  // namespace weldtwin

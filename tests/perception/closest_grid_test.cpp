@@ -1,0 +1,86 @@
+// The grid of candidate faces must answer exactly as the mesh does: the same nearest distance everywhere
+// (inside its cells, where it stops, beyond it), the same "nothing within max_m", from several threads, and
+// with the coarse cells a large part is given.
+#include "perception/localize/closest_grid.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <thread>
+
+namespace weldtwin {
+namespace {
+
+// A UV sphere of radius r with `around` x `up` quads, outward: its nearest face changes every few
+// millimetres, so that a cell whose faces were chosen too tightly shows.
+Mesh sphere(double r, int around, int up) {
+  Mesh m;
+  for (int j = 0; j <= up; ++j)
+    for (int i = 0; i < around; ++i) {
+      const double th = kPi * j / up, ph = 2 * kPi * i / around;
+      m.vertices.emplace_back(r * std::sin(th) * std::cos(ph), r * std::sin(th) * std::sin(ph),
+                              r * std::cos(th));
+    }
+  auto at = [&](int i, int j) { return j * around + (i % around); };
+  for (int j = 0; j < up; ++j)
+    for (int i = 0; i < around; ++i) {
+      m.faces.emplace_back(at(i, j), at(i, j + 1), at(i + 1, j + 1));
+      m.faces.emplace_back(at(i, j), at(i + 1, j + 1), at(i + 1, j));
+    }
+  return m;
+}
+
+void expect_same_answers(const MeshRays& rays, const ClosestGrid& grid, unsigned seed, double spread_m) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-spread_m, spread_m), reach(0.0005, 0.03);
+  int answered = 0;
+  for (int k = 0; k < 20000; ++k) {
+    const Vec3 p(u(rng), u(rng), u(rng));
+    const double max_m = reach(rng);
+    Vec3 a, na, b, nb;
+    const bool mesh = rays.closest(p, max_m, a, na);
+    const bool fast = grid.closest(p, max_m, b, nb);
+    ASSERT_EQ(mesh, fast) << p.transpose() << " within " << max_m;
+    if (!mesh) continue;
+    ++answered;
+    ASSERT_NEAR((a - p).norm(), (b - p).norm(), 1e-12) << p.transpose();
+    // Where two faces are equally near (an edge), either may answer: the point is the same, the normal that
+    // of a face through it.
+    ASSERT_LT((a - b).norm(), 1e-9) << p.transpose();
+    ASSERT_NEAR(nb.norm(), 1.0, 1e-9);
+  }
+  EXPECT_GT(answered, 2000) << "the draws must reach the surface often";
+}
+
+TEST(ClosestGrid, AnswersAsTheMeshDoesInAndAroundItsCells) {
+  const Mesh m = sphere(0.05, 48, 24);
+  const MeshRays rays(m);
+  ClosestGridSetting s;
+  s.cell_m = 0.004;
+  s.margin_m = 0.01;  // the grid stops 1 cm beyond the sphere's box; the draws go 3 cm beyond
+  const ClosestGrid grid(rays, Vec3::Constant(-0.05), Vec3::Constant(0.05), s);
+  expect_same_answers(rays, grid, 1, 0.08);
+}
+
+TEST(ClosestGrid, LargeCellsForALargePartGiveTheSameAnswers) {
+  const Mesh m = sphere(0.05, 48, 24);
+  const MeshRays rays(m);
+  ClosestGridSetting s;
+  s.max_cells = 1000;  // 10 x 10 x 10 cells over the sphere: 1.4 cm each
+  const ClosestGrid grid(rays, Vec3::Constant(-0.05), Vec3::Constant(0.05), s);
+  EXPECT_GT(grid.cell_m(), 0.013);
+  expect_same_answers(rays, grid, 2, 0.07);
+}
+
+TEST(ClosestGrid, ThreadsFillingTheSameCellsAgree) {
+  const Mesh m = sphere(0.05, 32, 16);
+  const MeshRays rays(m);
+  const ClosestGrid grid(rays, Vec3::Constant(-0.05), Vec3::Constant(0.05), ClosestGridSetting{});
+  std::vector<std::thread> pool;
+  for (unsigned t = 0; t < 4; ++t) pool.emplace_back([&] { expect_same_answers(rays, grid, 7, 0.06); });
+  for (std::thread& th : pool) th.join();
+}
+
+}  // namespace
+}  // namespace weldtwin
