@@ -45,8 +45,18 @@ const ClosestGrid::Cell* ClosestGrid::cell_at(long ix, long iy, long iz) const {
   const Vec3 c = origin_ + cell_ * Vec3(static_cast<double>(ix) + 0.5, static_cast<double>(iy) + 0.5,
                                         static_cast<double>(iz) + 0.5);
   cell->centre_distance_m = rays_.distance(c, far_);
-  if (std::isfinite(cell->centre_distance_m))
-    rays_.faces_within(c, cell->centre_distance_m + 2 * half_diagonal_ + kRadiusSlack_m, cell->faces);
+  if (std::isfinite(cell->centre_distance_m)) {
+    std::vector<unsigned> within;
+    rays_.faces_within(c, cell->centre_distance_m + 2 * half_diagonal_ + kRadiusSlack_m, within);
+    std::vector<std::pair<double, unsigned>> by_distance;
+    for (unsigned f : within) by_distance.emplace_back((rays_.closest_on_face(c, f) - c).norm(), f);
+    std::stable_sort(by_distance.begin(), by_distance.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (const auto& [d, f] : by_distance) {
+      cell->faces.push_back(f);
+      cell->face_m.push_back(d);
+    }
+  }
   Cell* expected = nullptr;
   if (__atomic_compare_exchange_n(slot, &expected, cell.get(), false, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE)) {
     const std::lock_guard<std::mutex> lock(made_mutex_);
@@ -67,7 +77,11 @@ bool ClosestGrid::closest(const Vec3& p, double max_m, Vec3& point, Vec3& face_n
   double best = max_m * max_m;
   unsigned face = 0;
   bool found = false;
-  for (unsigned f : cell->faces) {
+  // A face d from the centre is at least d - h from p: once that is beyond the best, so are the rest.
+  for (size_t i = 0; i < cell->faces.size(); ++i) {
+    const double reach = cell->face_m[i] - half_diagonal_;
+    if (reach > 0 && reach * reach >= best) break;
+    const unsigned f = cell->faces[i];
     const Vec3 q = rays_.closest_on_face(p, f);
     const double d2 = (q - p).squaredNorm();
     if (d2 < best) {

@@ -38,7 +38,8 @@ class ClosestGrid {
  private:
   struct Cell {
     double centre_distance_m = 0.0;  ///< from the cell's centre to the surface
-    std::vector<unsigned> faces;     ///< every face that can be nearest to a point of the cell
+    std::vector<unsigned> faces;     ///< every face that can be nearest to a point of the cell, ...
+    std::vector<double> face_m;      ///< ... nearest the centre first, and how far from it [m]
   };
   const Cell* cell_at(long ix, long iy, long iz) const;
 
