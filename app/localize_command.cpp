@@ -79,6 +79,10 @@ int run_localize(const LocalizeCommand& cmd) {
       cmd.part.empty() ? std::nullopt : std::optional(PartSpec::load(cmd.part));
   const Mesh mesh =
       cmd.model.empty() ? load_mesh(part->mesh_path) : load_mesh(cmd.model, cmd.units == "mm" ? 1e-3 : 1.0);
+  // The part made ready on its own thread while the cloud is read and the table found.
+  const std::optional<PreparedPart> prepared =
+      cmd.method == "paper" ? std::nullopt
+                            : std::optional<PreparedPart>(std::in_place, mesh, LocalizeSetting(), true);
   size_t dropped = 0;
   std::vector<Vec3> viewpoints;  // where the sensor saw each point from, if the cloud says
   std::vector<Vec3> cloud = read_cloud(cmd.scan, &dropped, &viewpoints);
@@ -101,7 +105,7 @@ int run_localize(const LocalizeCommand& cmd) {
   const std::vector<Vec3> seam_points = part ? part->seam_points(0.001) : std::vector<Vec3>();
   const PoseEstimate pose = cmd.method == "paper"
                                 ? localize_paper(cloud, mesh)
-                                : localize(cloud, mesh, LocalizeSetting(), seam_points, viewpoints);
+                                : localize(cloud, *prepared, LocalizeSetting(), seam_points, viewpoints);
 
   nlohmann::json out = pose_to_json(pose);
   out["method"] = cmd.method;

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <future>
 #include <limits>
 #include <stdexcept>
 
@@ -24,25 +25,37 @@ constexpr size_t kMinModelSamples = 50;  // a mesh sampled to fewer points is to
 struct PreparedPart::Impl {
   PartModel model;
   double min_z = 0.0;  ///< the mesh's lowest vertex: the resting frame is the mesh frame lifted by it
-  double model_spacing_m = 0.0;  ///< the setting it was prepared with
+  double model_spacing_m = 0.0;    ///< the setting it was prepared with
+  std::shared_future<void> ready;  ///< the model built (or its error)
+
+  void build(const Mesh& mesh, const LocalizeSetting& setting) {
+    min_z = 1e9;
+    for (const Vec3& v : mesh.vertices) min_z = std::min(min_z, v.z());
+    build_part_model(mesh, min_z, setting.model, setting.threads, model);
+  }
 };
 
-PreparedPart::PreparedPart(const Mesh& mesh, const LocalizeSetting& setting)
+PreparedPart::PreparedPart(const Mesh& mesh, const LocalizeSetting& setting, bool in_background)
     : impl_(std::make_shared<Impl>()) {
-  impl_->min_z = 1e9;
-  for (const Vec3& v : mesh.vertices) impl_->min_z = std::min(impl_->min_z, v.z());
   impl_->model_spacing_m = setting.model.spacing_m;
-  build_part_model(mesh, impl_->min_z, setting.model, setting.threads, impl_->model);
+  if (in_background) {
+    impl_->ready = std::async(std::launch::async, [impl = impl_.get(), mesh, setting] {
+                     impl->build(mesh, setting);
+                   }).share();
+    return;
+  }
+  impl_->build(mesh, setting);
+  std::promise<void> done;
+  done.set_value();
+  impl_->ready = done.get_future().share();
 }
 
 PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, const LocalizeSetting& s,
                       const std::vector<Vec3>& seam_points, const std::vector<Vec3>& viewpoints_base) {
   const auto t0 = Clock::now();
-  const PreparedPart part(mesh, s);
-  const double model_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  const PreparedPart part(mesh, s, true);  // built while the table is found
   PoseEstimate out = localize(scan_base, part, s, seam_points, viewpoints_base);
-  out.seconds += model_s;
-  if (!out.stage_seconds.empty()) out.stage_seconds.front().second += model_s;
+  out.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   return out;
 }
 
@@ -64,13 +77,15 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
     return out;
   };
 
+  // 1. The table plane, the range noise, and the limits that follow from the noise (while the part may
+  // still be in the making).
+  const TablePlane table = find_table_plane(scan_base, s.table);
+  stage("table");
+  part.impl_->ready.get();
   const double min_z = part.impl_->min_z;
   PartModel& model = part.impl_->model;  // its nearest-sample grid fills as it is asked (the same answers)
   stage("model");
   if (model.pts.size() < kMinModelSamples) return finish("the model mesh is too small to sample");
-
-  // 1. The table plane, the range noise, and the limits that follow from the noise.
-  const TablePlane table = find_table_plane(scan_base, s.table);
   if (!table.found) {
     char why[240];
     std::snprintf(
@@ -89,7 +104,6 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   limits.inlier_m = std::max(s.score.min_inlier_m, s.score.inlier_sigmas * noise);
   limits.edge_margin_m = s.icp.edge_margin_sigmas * noise;
   limits.height_cut_m = std::max(s.scene.min_height_m, s.scene.height_cut_sigmas * noise);
-  stage("table");
 
   // 2. The scene's points in the table frame.
   const ScenePoints scene = scene_points(scan_base, viewpoints_base, table.plane, limits, model.height,

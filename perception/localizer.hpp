@@ -106,7 +106,8 @@ struct PoseEstimate {
   double edge_shift_m = 0.0, edge_turn_rad = 0.0;
   double seconds = 0.0;
   std::vector<std::pair<std::string, double>>
-      stage_seconds;  ///< model, table, objects, search, refine, fit (the surface fit, the bounds), verdict
+      stage_seconds;  ///< table, model (waiting for the part, built beside the table), objects, search,
+                      ///< refine, fit (the surface fit, the bounds), verdict
 };
 
 /// A part's mesh made ready for localize(): surface samples, which of them a scanner can see, the mesh for
@@ -116,7 +117,10 @@ struct PoseEstimate {
 /// fills it).
 class PreparedPart {
  public:
-  explicit PreparedPart(const Mesh& mesh, const LocalizeSetting& setting = {});
+  /// `in_background`: made ready on a thread of its own (the mesh copied), so that the caller can read the
+  /// scan meanwhile; localize() finds the table first and then waits for it. An error in the mesh is thrown
+  /// there.
+  explicit PreparedPart(const Mesh& mesh, const LocalizeSetting& setting = {}, bool in_background = false);
 
  private:
   struct Impl;

@@ -294,8 +294,8 @@ TEST(Localizer, RaysCastFromTheirViewpointsFindTheSquareTubeWhereItsPointsAloneD
 
 TEST(Localizer, APreparedPartGivesTheMeshsAnswersScanAfterScan) {
   // One prepared part, used on a scan and then on another (its lookup grid already filled by the first):
-  // the second answer is, to the bit, the one the mesh itself gives. Prepared with another model spacing
-  // than the setting's, it is refused.
+  // the second answer is, to the bit, the one the mesh itself gives (that call builds its part on a thread
+  // beside the table search). Prepared with another model spacing than the setting's, it is refused.
   const TwinScan first = twin_scan("scenes/cells/default.yaml", 3),
                  second = twin_scan("scenes/cells/default.yaml", 4);
   const Mesh mesh = load_mesh(first.part.mesh_path);
