@@ -50,7 +50,8 @@ void beyond_edge_samples(const Mesh& rest, PartModel& model, const PartModelSett
           const Vec3 q = a + t * along + d * u;
           if (q.z() <= 0.0) continue;  // under the table
           double d2 = 0.0;
-          if (model.tree.nearest(q, d2) < 0 || d2 < std::pow(s.beyond_clearance_share * d, 2)) continue;
+          if (model.pts.empty() || model.tree.nearest_within(q, s.beyond_clearance_share * d, d2) >= 0)
+            continue;
           if (model.rays && view_directions(*model.rays, q, n) == 0) continue;  // no scanner sees it
           out.push_back(q);
           model.beyond_dist.push_back(static_cast<float>(d));
@@ -73,7 +74,7 @@ PartExtent scan_beyond_model(const ScenePoints& scene, const PartModel& model, c
     const Vec3& q = model.beyond[i];
     if (q.z() < low || model.beyond_dist[i] < least) continue;
     ++out.samples;
-    if (scene.tree.nearest(T * q, d2) >= 0 && d2 < reach * reach) on.push_back(q);
+    if (scene.tree.nearest_within(T * q, reach, d2) >= 0) on.push_back(q);
   }
   out.supported = static_cast<int>(on.size());
   // Groups by single linkage (union-find over the pairs closer than link_m).

@@ -13,13 +13,15 @@
 namespace weldtwin {
 namespace {
 
-constexpr double kVertexKey = 1e6;      // vertices compared to a micrometre
-constexpr double kUndersideZ = 1e-4;    // edges this close to the resting plane are the underside's [m]
-constexpr double kFootprintTop = 1e-3;  // underside faces lie below this [m]
-constexpr double kDownNormalZ = -0.9;   // ... and face down at least this steeply
-constexpr double kDegenerate = 1e-14;   // a face with a smaller cross product has no normal
-constexpr size_t kChunk = 512;          // samples per work item
-constexpr double kWallNormalZ = 0.5;    // a sample with |n.z| below this is on a wall
+constexpr double kVertexKey = 1e6;       // vertices compared to a micrometre
+constexpr double kUndersideZ = 1e-4;     // edges this close to the resting plane are the underside's [m]
+constexpr double kFootprintTop = 1e-3;   // underside faces lie below this [m]
+constexpr double kDownNormalZ = -0.9;    // ... and face down at least this steeply
+constexpr double kDegenerate = 1e-14;    // a face with a smaller cross product has no normal
+constexpr size_t kChunk = 512;           // samples per work item
+constexpr double kWallNormalZ = 0.5;     // a sample with |n.z| below this is on a wall
+constexpr float kFarFromEdges_m = 1.0f;  // the edge distance of a sample beyond edge_reach_m (or of a mesh
+                                         // without feature edges)
 
 // Feature edges of the mesh (where the faces meet at more than sharp_edge_deg, or a face has no neighbour),
 // except along the underside resting on the table, as points edge_point_step_m apart.
@@ -82,7 +84,7 @@ int PartModel::nearest(const Vec3& p) {
       cache_origin + cache_cell * Vec3(static_cast<double>(ix) + 0.5, static_cast<double>(iy) + 0.5,
                                        static_cast<double>(iz) + 0.5);
   double d2 = 0.0;
-  const int known = tree.nearest(c, d2);
+  const int known = tree.nearest_within(c, cache_margin, d2);
   __atomic_store_n(slot, known + 2, __ATOMIC_RELAXED);
   return known;
 }
@@ -128,14 +130,14 @@ void build_part_model(const Mesh& mesh, double min_z, const PartModelSetting& s,
   model.surface = std::make_unique<ClosestGrid>(rays, model.lo, model.hi, s.closest);
 
   // Distance of every sample to the nearest feature edge.
-  model.edge_distance.assign(n, 1.0f);
+  model.edge_distance.assign(n, kFarFromEdges_m);
   const std::vector<Vec3> edge_pts = feature_edge_points(rest, 0.0, s);
   if (!edge_pts.empty()) {
     const PointTree edge_tree(edge_pts);
     parallel_for((n + kChunk - 1) / kChunk, threads, [&](size_t chunk) {
       double d2 = 0.0;
       for (size_t k = chunk * kChunk; k < std::min(n, (chunk + 1) * kChunk); ++k)
-        if (edge_tree.nearest(model.pts[k], d2) >= 0)
+        if (edge_tree.nearest_within(model.pts[k], s.edge_reach_m, d2) >= 0)
           model.edge_distance[k] = static_cast<float>(std::sqrt(d2));
     });
   }

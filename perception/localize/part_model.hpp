@@ -23,8 +23,11 @@ struct PartModelSetting {
   double thickness_probe_m = 0.05;   ///< how far behind and in front of a face the next surface is sought [m]
   double sharp_edge_deg = 30.0;      ///< faces meeting at more than this make a feature edge [deg]
   double edge_point_step_m = 0.001;  ///< feature edges as points this far apart [m]
-  double height_bin_m = 0.002;       ///< wall samples binned by height for the Hough vote [m]
-  double footprint_cell_m = 0.002;   ///< footprint cell [m]
+  /// A sample's distance to the nearest feature edge is measured up to this; beyond, it is "far" (1 m). The
+  /// stages ask whether a sample is a few noise sigmas from an edge: millimetres [m]
+  double edge_reach_m = 0.05;
+  double height_bin_m = 0.002;         ///< wall samples binned by height for the Hough vote [m]
+  double footprint_cell_m = 0.002;     ///< footprint cell [m]
   double footprint_margin_m = 0.004;   ///< the footprint grid reaches this far beyond the samples [m]
   double outline_step_m = 0.001;       ///< outline samples this far apart [m]
   double outline_corner_m = 0.004;     ///< ... and this far from the outline's corners [m]
@@ -46,7 +49,7 @@ struct PartModel {
   std::vector<Vec3> pts, nrm;       ///< every face but the underside
   std::vector<uint8_t> visible;     ///< seen from outside (a scanner above the table can see it at all)
   std::vector<uint8_t> view_score;  ///< how many of the test directions see it (more: seen more often)
-  std::vector<float> half_thickness, edge_distance;  ///< [m]
+  std::vector<float> half_thickness, edge_distance;  ///< [m] (edge_distance: 1 m beyond edge_reach_m)
   PointTree tree;
   std::unique_ptr<MeshRays> rays;             ///< the mesh itself, resting on z = 0
   std::unique_ptr<ClosestGrid> surface;       ///< its nearest points, the same answers as rays->closest
@@ -68,8 +71,9 @@ struct PartModel {
   std::vector<Vec3> beyond;        ///< the faces continued past their convex edges, into free air
   std::vector<float> beyond_dist;  ///< ... and how far past the edge each sample is [m]
 
-  /// The sample nearest p, or -1 outside the lookup grid. Answers come from a lazily filled grid (each slot
-  /// holds the sample nearest its centre): ICP asks about the same places again and again. Safe to call from
+  /// The sample nearest p, or -1 outside the lookup grid or farther than its margin (lookup_margin_m) from
+  /// every sample. Answers come from a lazily filled grid (each slot holds the sample nearest its centre):
+  /// ICP asks about the same places again and again. Safe to call from
   /// several threads: a slot is filled with the same answer by whoever gets there first.
   int nearest(const Vec3& p);
 

@@ -35,6 +35,15 @@ class PointTree {
     index_->knnSearch(q.data(), 1, &i, &d2);
     return static_cast<int>(i);
   }
+  /// The same within `max_m` only: -1 when no point is that near (a search that stops early, far cheaper
+  /// for questions far from every point). When one is, the answer is nearest()'s, to the tie.
+  int nearest_within(const Vec3& q, double max_m, double& d2) const {
+    if (data_->pts.empty()) return -1;
+    Within within{max_m * max_m};
+    index_->findNeighbors(within, q.data(), nanoflann::SearchParams());
+    d2 = within.best;
+    return within.index;
+  }
   const std::vector<Vec3>& points() const { return data_->pts; }
 
  private:
@@ -47,6 +56,21 @@ class PointTree {
     bool kdtree_get_bbox(Box&) const {
       return false;
     }
+  };
+  // nanoflann's result-set interface for one nearest point, searched only within a radius.
+  struct Within {
+    double best;  ///< squared distance: the radius, then the best so far
+    int index = -1;
+    size_t size() const { return index >= 0 ? 1 : 0; }
+    bool full() const { return true; }
+    bool addPoint(double d2, uint32_t i) {
+      if (d2 < best) {
+        best = d2;
+        index = static_cast<int>(i);
+      }
+      return true;
+    }
+    double worstDist() const { return best; }
   };
   using Index = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Data>, Data, 3>;
   std::unique_ptr<Data> data_;  // the index refers to it: it must not move

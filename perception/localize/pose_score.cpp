@@ -68,7 +68,7 @@ double coverage(const ScenePoints& c, const PartModel& m, const Iso3& P, const s
       continue;
     if (!among.empty() && !among[k]) continue;
     ++total;
-    if (c.tree.nearest(T * m.pts[k], d2) >= 0 && d2 < reach * reach) ++seen;
+    if (c.tree.nearest_within(T * m.pts[k], reach, d2) >= 0) ++seen;
   }
   return total ? static_cast<double>(seen) / total : 0.0;
 }
