@@ -30,10 +30,13 @@ constexpr size_t kLzfMaxRatio = 90;
 
 std::string read_file(const std::string& path) {
   if (!is_file(path)) throw input_error(path, "no such file");
-  std::ifstream in(path, std::ios::binary);
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) throw input_error(path, "cannot open the file");
-  std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (data.empty()) throw input_error(path, "empty file");
+  const std::streamoff size = in.tellg();
+  if (size <= 0) throw input_error(path, "empty file");
+  std::string data(static_cast<size_t>(size), '\0');  // what the file holds, read in one go
+  in.seekg(0);
+  if (!in.read(data.data(), size)) throw input_error(path, "cannot read the file");
   return data;
 }
 
@@ -71,9 +74,13 @@ bool parse_double(const char*& p, const char* end, double& v) {
   while (p < end && (*p == ' ' || *p == '\t' || *p == '\r')) ++p;
   if (p >= end || *p == '\n') return false;
   const char* start = p;
-  while (p < end && !std::isspace(static_cast<unsigned char>(*p))) ++p;
-  const auto r = std::from_chars(start, p, v);
-  if (r.ec == std::errc() && r.ptr == p) return true;
+  const auto r = std::from_chars(start, end, v);
+  auto separator = [&](const char* c) { return c == end || std::isspace(static_cast<unsigned char>(*c)); };
+  if (r.ec == std::errc() && separator(r.ptr)) {
+    p = r.ptr;
+    return true;
+  }
+  while (p < end && !separator(p)) ++p;
   std::string token(start, p);  // nan, inf, +1.5 and the like
   char* stop = nullptr;
   v = std::strtod(token.c_str(), &stop);

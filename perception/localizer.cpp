@@ -120,7 +120,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   std::optional<Iso3> guess;
   if (s.use_initial_guess)
     guess = scene.T_table_base * s.initial_guess * make_transform(Vec3(0, 0, min_z), Mat3::Identity());
-  const PoseSearchResult search = search_poses(scene, model, s.search, guess);
+  const PoseSearchResult search = search_poses(scene, model, s.search, guess, s.threads);
   if (search.hypotheses.empty()) return finish(search.reason);
   const std::vector<Hypothesis>& hyps = search.hypotheses;
   stage("search");

@@ -24,7 +24,8 @@ struct PartModelSetting {
   double sharp_edge_deg = 30.0;      ///< faces meeting at more than this make a feature edge [deg]
   double edge_point_step_m = 0.001;  ///< feature edges as points this far apart [m]
   /// A sample's distance to the nearest feature edge is measured up to this; beyond, it is "far" (1 m). The
-  /// stages ask whether a sample is a few noise sigmas from an edge: millimetres [m]
+  /// stages ask whether a sample lies within half a noise sigma of an edge (planar ICP) or farther than 3
+  /// sigmas + 2 mm (rays): exact for range noise up to 16 mm [m]
   double edge_reach_m = 0.05;
   double height_bin_m = 0.002;         ///< wall samples binned by height for the Hough vote [m]
   double footprint_cell_m = 0.002;     ///< footprint cell [m]

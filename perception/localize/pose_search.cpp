@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <unordered_map>
 
 #include <Eigen/Eigenvalues>
 
+#include "core/parallel_for.hpp"
 #include "perception/localize/stats.hpp"
 
 namespace weldtwin {
@@ -22,10 +22,67 @@ long long vote_key(int ix, int iy, int iw) {
   return (static_cast<long long>(ix + kXyKeyOffset) * kXyKeySpan + (iy + kXyKeyOffset)) * kYawKeyBins + iw;
 }
 
+// Vote counts by key: open addressing in one flat table (a vote is a probe or two in memory, not a node of a
+// hash map), grown at half full.
+class VoteCounts {
+ public:
+  void add(long long key) {
+    if (2 * (used_ + 1) > slots_.size()) grow();
+    size_t i = slot_of(key);
+    while (slots_[i].count != 0 && slots_[i].key != key) i = (i + 1) & (slots_.size() - 1);
+    if (slots_[i].count == 0) {
+      slots_[i].key = key;
+      ++used_;
+    }
+    ++slots_[i].count;
+  }
+  int get(long long key) const {
+    if (slots_.empty()) return 0;
+    for (size_t i = slot_of(key);; i = (i + 1) & (slots_.size() - 1)) {
+      if (slots_[i].count == 0) return 0;
+      if (slots_[i].key == key) return slots_[i].count;
+    }
+  }
+  bool empty() const { return used_ == 0; }
+  /// Every (count, key), in no particular order.
+  std::vector<std::pair<int, long long>> entries() const {
+    std::vector<std::pair<int, long long>> out;
+    out.reserve(used_);
+    for (const Slot& e : slots_)
+      if (e.count != 0) out.emplace_back(e.count, e.key);
+    return out;
+  }
+
+ private:
+  struct Slot {
+    long long key = 0;
+    int count = 0;
+  };
+  size_t slot_of(long long key) const {
+    return static_cast<size_t>((static_cast<unsigned long long>(key) * 0x9E3779B97F4A7C15ull) >> 20) &
+           (slots_.size() - 1);
+  }
+  void grow() {
+    std::vector<Slot> old = std::move(slots_);
+    slots_.assign(std::max<size_t>(kInitialSlots, 2 * old.size()), Slot{});
+    used_ = 0;
+    for (const Slot& e : old)
+      if (e.count != 0) {
+        size_t i = slot_of(e.key);
+        while (slots_[i].count != 0) i = (i + 1) & (slots_.size() - 1);
+        slots_[i] = e;
+        ++used_;
+      }
+  }
+  static constexpr size_t kInitialSlots = 1 << 16;
+  std::vector<Slot> slots_;
+  size_t used_ = 0;
+};
+
 }  // namespace
 
 PoseSearchResult search_poses(const ScenePoints& scene, PartModel& model, const PoseSearchSetting& s,
-                              const std::optional<Iso3>& guess) {
+                              const std::optional<Iso3>& guess, int threads) {
   PoseSearchResult out;
   const std::vector<Vec3>& scan = scene.objects;
   const double height_cut = scene.limits.height_cut_m;
@@ -39,7 +96,14 @@ PoseSearchResult search_poses(const ScenePoints& scene, PartModel& model, const 
     out.reason = "nothing part-like stands on the table";
     return out;
   }
-  std::unordered_map<long long, int> votes;
+  VoteCounts votes;
+  // The direction of every model wall sample's normal, once.
+  std::vector<std::vector<double>> wall_angle(model.walls_by_height.size());
+  for (size_t hb = 0; hb < model.walls_by_height.size(); ++hb)
+    for (int k : model.walls_by_height[hb]) {
+      const Vec3& mn = model.nrm[static_cast<size_t>(k)];
+      wall_angle[hb].push_back(std::atan2(mn.y(), mn.x()));
+    }
   const int yaw_bins = static_cast<int>(std::round(360.0 / s.vote_yaw_deg));
   const size_t stride = std::max<size_t>(1, voters.size() / static_cast<size_t>(s.vote_points));
   std::vector<uint32_t> nidx;
@@ -59,18 +123,22 @@ PoseSearchResult search_poses(const ScenePoints& scene, PartModel& model, const 
     const long bin = static_cast<long>(q.z() / model.height_bin_m);
     for (long hb = bin - 1; hb <= bin + 1; ++hb) {
       if (hb < 0 || hb >= static_cast<long>(model.walls_by_height.size())) continue;
-      for (int k : model.walls_by_height[static_cast<size_t>(hb)]) {
-        const Vec3& mp = model.pts[static_cast<size_t>(k)];
-        const Vec3& mn = model.nrm[static_cast<size_t>(k)];
-        const double b = std::atan2(mn.y(), mn.x());
-        for (double flip : {0.0, kPi}) {
-          double yaw = std::remainder(a - b + flip, 2 * kPi);
-          if (yaw < 0) yaw += 2 * kPi;
-          const double cy = std::cos(yaw), sy = std::sin(yaw);
+      const std::vector<int>& walls = model.walls_by_height[static_cast<size_t>(hb)];
+      for (size_t j = 0; j < walls.size(); ++j) {
+        const Vec3& mp = model.pts[static_cast<size_t>(walls[j])];
+        double yaw = std::remainder(a - wall_angle[static_cast<size_t>(hb)][j], 2 * kPi);
+        if (yaw < 0) yaw += 2 * kPi;
+        double cy = std::cos(yaw), sy = std::sin(yaw);
+        for (int flip = 0; flip < 2; ++flip) {  // the turn by pi: the same point, the other normal sign
+          if (flip) {
+            yaw = yaw < kPi ? yaw + kPi : yaw - kPi;
+            cy = -cy;
+            sy = -sy;
+          }
           const double tx = q.x() - (cy * mp.x() - sy * mp.y()), ty = q.y() - (sy * mp.x() + cy * mp.y());
           const int iw = static_cast<int>(yaw / deg2rad(s.vote_yaw_deg)) % yaw_bins;
-          ++votes[vote_key(static_cast<int>(std::floor(tx / s.vote_xy_m)),
-                           static_cast<int>(std::floor(ty / s.vote_xy_m)), iw)];
+          votes.add(vote_key(static_cast<int>(std::floor(tx / s.vote_xy_m)),
+                             static_cast<int>(std::floor(ty / s.vote_xy_m)), iw));
         }
       }
     }
@@ -80,12 +148,13 @@ PoseSearchResult search_poses(const ScenePoints& scene, PartModel& model, const 
     return out;
   }
   // Peaks: the best raw bins, ranked by the votes of their 3x3x3 neighbourhood, at least a bin apart.
-  std::vector<std::pair<int, long long>> ranked;
-  ranked.reserve(votes.size());
-  for (const auto& [k, v] : votes) ranked.emplace_back(v, k);
+  // (Of bins with as many votes, the lower key first: the same peaks whatever the table's order.)
+  std::vector<std::pair<int, long long>> ranked = votes.entries();
   const size_t top = std::min<size_t>(ranked.size(), static_cast<size_t>(s.ranked_bins));
   std::partial_sort(ranked.begin(), ranked.begin() + static_cast<long>(top), ranked.end(),
-                    [](const auto& x, const auto& y) { return x.first > y.first; });
+                    [](const auto& x, const auto& y) {
+                      return x.first > y.first || (x.first == y.first && x.second < y.second);
+                    });
   std::vector<Hypothesis> peaks;
   for (size_t r = 0; r < top; ++r) {
     const long long k = ranked[r].second;
@@ -97,8 +166,7 @@ PoseSearchResult search_poses(const ScenePoints& scene, PartModel& model, const 
     for (int dx = -1; dx <= 1; ++dx)
       for (int dy = -1; dy <= 1; ++dy)
         for (int dw = -1; dw <= 1; ++dw) {
-          const auto it = votes.find(vote_key(ix + dx, iy + dy, (iw + dw + yaw_bins) % yaw_bins));
-          if (it != votes.end()) sum += it->second;
+          sum += votes.get(vote_key(ix + dx, iy + dy, (iw + dw + yaw_bins) % yaw_bins));
         }
     peaks.push_back(
         {(ix + 0.5) * s.vote_xy_m, (iy + 0.5) * s.vote_xy_m, (iw + 0.5) * deg2rad(s.vote_yaw_deg), sum});
@@ -124,8 +192,8 @@ PoseSearchResult search_poses(const ScenePoints& scene, PartModel& model, const 
   // which are worth refining.
   const std::vector<ScanPoint> probe = thinned(scene.icp_points, static_cast<size_t>(s.quick_look_points));
   const double near2 = s.quick_look_m * s.quick_look_m;
-  std::vector<std::pair<int, size_t>> quick;
-  for (size_t i = 0; i < hyps.size(); ++i) {
+  std::vector<std::pair<int, size_t>> quick(hyps.size());
+  parallel_for(hyps.size(), threads, [&](size_t i) {
     const Iso3 P0 = planar_pose(hyps[i].x, hyps[i].y, 0.0, hyps[i].yaw).inverse();
     int near = 0;
     for (const ScanPoint& sp : probe) {
@@ -133,8 +201,8 @@ PoseSearchResult search_poses(const ScenePoints& scene, PartModel& model, const 
       const int k = model.nearest(p);
       near += k >= 0 && (p - model.pts[static_cast<size_t>(k)]).squaredNorm() < near2;
     }
-    quick.emplace_back(near, i);
-  }
+    quick[i] = {near, i};
+  });
   std::stable_sort(quick.begin(), quick.end(),
                    [](const auto& a, const auto& b) { return a.first > b.first; });
   for (const auto& [near, i] : quick) out.hypotheses.push_back(hyps[i]);

@@ -37,8 +37,9 @@ struct PoseSearchResult {
   std::string reason;                  ///< why there are none
 };
 
-/// The search; `guess` (T_table_part, optional) is put first, beside the peaks.
+/// The search; `guess` (T_table_part, optional) is put first, beside the peaks. The quick looks on
+/// `threads` threads (0: all cores).
 PoseSearchResult search_poses(const ScenePoints& scene, PartModel& model, const PoseSearchSetting& setting,
-                              const std::optional<Iso3>& guess = {});
+                              const std::optional<Iso3>& guess = {}, int threads = 1);
 
 }  // namespace weldtwin
