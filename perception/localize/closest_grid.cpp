@@ -10,6 +10,8 @@ namespace weldtwin {
 namespace {
 
 constexpr double kRadiusSlack_m = 1e-9;  // rounding room on the candidate radius
+constexpr double kTie = 1e-9;            // squared distances this close (relative) ...
+constexpr double kTieFloor_m2 = 1e-20;   // ... or absolutely [m^2] are one distance
 
 }  // namespace
 
@@ -80,12 +82,15 @@ bool ClosestGrid::closest(const Vec3& p, double max_m, Vec3& point, Vec3& face_n
   // A face d from the centre is at least d - h from p: once that is beyond the best, so are the rest.
   for (size_t i = 0; i < cell->faces.size(); ++i) {
     const double reach = cell->face_m[i] - half_diagonal_;
-    if (reach > 0 && reach * reach >= best) break;
+    if (reach > 0 && reach * reach >= best * (1 + kTie)) break;
     const unsigned f = cell->faces[i];
     const Vec3 q = rays_.closest_on_face(p, f);
     const double d2 = (q - p).squaredNorm();
-    if (d2 < best) {
-      best = d2;
+    // Faces meeting at an edge or a vertex are equally near a point beyond it (to rounding): the face the
+    // point stands in front of most squarely gives the normal, whichever the order of the faces.
+    const bool tie = found && std::abs(d2 - best) <= kTie * best + kTieFloor_m2;
+    if (tie ? rays_.face_normal(f).dot(p - q) > rays_.face_normal(face).dot(p - point) : d2 < best) {
+      best = std::min(best, d2);
       point = q;
       face = f;
       found = true;

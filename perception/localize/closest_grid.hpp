@@ -31,7 +31,9 @@ class ClosestGrid {
   ClosestGrid& operator=(const ClosestGrid&) = delete;
 
   /// As MeshRays::closest: the surface point nearest `p` within `max_m` (false if none), and the outward
-  /// normal of its face. Safe to call from several threads.
+  /// normal of its face; where faces meet at the nearest point (an edge, a vertex), the normal of the face
+  /// `p` stands in front of most squarely (Embree's point query takes whichever it meets first). Safe to
+  /// call from several threads.
   bool closest(const Vec3& p, double max_m, Vec3& point, Vec3& face_normal) const;
   double cell_m() const { return cell_; }
 

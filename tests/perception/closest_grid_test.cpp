@@ -73,6 +73,44 @@ TEST(ClosestGrid, LargeCellsForALargePartGiveTheSameAnswers) {
   expect_same_answers(rays, grid, 2, 0.07);
 }
 
+// The cube [-h, h]^3, 12 triangles, outward.
+Mesh cube(double h) {
+  Mesh m;
+  for (int i = 0; i < 8; ++i) m.vertices.emplace_back(i & 1 ? h : -h, i & 2 ? h : -h, i & 4 ? h : -h);
+  const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
+                           {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (const auto& q : quads) {
+    m.faces.emplace_back(q[0], q[1], q[2]);
+    m.faces.emplace_back(q[0], q[2], q[3]);
+  }
+  return m;
+}
+
+TEST(ClosestGrid, BeyondAnEdgeTheFaceInFrontGivesTheNormal) {
+  const double h = 0.05;
+  const Mesh m = cube(h);
+  const MeshRays rays(m);
+  const ClosestGrid grid(rays, Vec3::Constant(-h), Vec3::Constant(h), ClosestGridSetting{});
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> along(-0.04, 0.04), out(0.0005, 0.008);
+  for (int k = 0; k < 2000; ++k) {
+    // Beyond the edge x = y = h, more in front of one face than the other; and beyond a vertex.
+    const double a = out(rng), b = out(rng);
+    if (std::abs(a - b) < 1e-4) continue;
+    const Vec3 p(h + a, h + b, along(rng));
+    Vec3 at, n;
+    ASSERT_TRUE(grid.closest(p, 0.02, at, n));
+    EXPECT_NEAR((at - Vec3(h, h, p.z())).norm(), 0.0, 1e-12);
+    EXPECT_NEAR(n.dot(a > b ? Vec3::UnitX() : Vec3::UnitY()), 1.0, 1e-12) << p.transpose();
+    const Vec3 v(h + a, h + b, h + out(rng));
+    ASSERT_TRUE(grid.closest(v, 0.03, at, n));
+    const Vec3 off = v - Vec3::Constant(h);
+    Eigen::Index most = 0;
+    off.maxCoeff(&most);
+    EXPECT_NEAR(n[most], 1.0, 1e-12) << v.transpose();
+  }
+}
+
 TEST(ClosestGrid, ThreadsFillingTheSameCellsAgree) {
   const Mesh m = sphere(0.05, 32, 16);
   const MeshRays rays(m);
