@@ -4,6 +4,11 @@ ours and the paper's method, as a user runs it. The samples are ASCII PCD; each 
 PCD (same points) so that the reader's share shows. Prints the median of REPEATS runs per case.
 
     benchmarks/localize_timing.py [--weldtwin build/app/weldtwin] [--samples DIR] [--real DIR] [--repeats 5]
+                                  [--baseline OTHER_WELDTWIN]
+
+--baseline: another build of weldtwin (an earlier commit, say), run interleaved with this one on the same
+cases (each repeat runs both, so that a slower moment of the machine falls on both): its median beside ours
+and the ratio ours/baseline.
 
 --samples DIR: folders with scan.pcd and part.stl; --real DIR: real scans (*.pcd) with the part's mesh (*.stl)
 beside them.
@@ -48,6 +53,7 @@ def main():
     ap.add_argument("--samples", default="../shared/samples")
     ap.add_argument("--real", default="")
     ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--baseline", default="")
     args = ap.parse_args()
     tmp = tempfile.mkdtemp(prefix="weldtwin_timing_")
     rows = []
@@ -66,23 +72,36 @@ def main():
         n = to_binary_pcd(ascii_scan, binary)
         for fmt, scan in (("ascii", ascii_scan), ("binary", binary)):
             for method in ("ours", "paper"):
-                cmd = [args.weldtwin, "localize", "-q", "--model", mesh, "--scan", scan,
-                       "--out", os.path.join(tmp, "pose.json"), "--method", method]
-                times = []
+                def command(binary):
+                    return [binary, "localize", "-q", "--model", mesh, "--scan", scan,
+                            "--out", os.path.join(tmp, "pose.json"), "--method", method]
+                times, base_times = [], []
                 for _ in range(args.repeats):
-                    t, rc = wall_time(cmd)
+                    t, rc = wall_time(command(args.weldtwin))
                     times.append(t)
-                rows.append((name, n, fmt, method, statistics.median(times), rc))
+                    if args.baseline:
+                        base_times.append(wall_time(command(args.baseline))[0])
+                rows.append((name, n, fmt, method, statistics.median(times), rc,
+                             statistics.median(base_times) if base_times else None))
     start, _ = wall_time([args.weldtwin, "--help"])
     print(f"process start-up alone (weldtwin --help): {start:.3f} s")
-    print(f"{'sample':28} {'points':>7} {'format':>7} {'method':>6} {'median s':>9} exit")
-    for name, n, fmt, method, t, rc in rows:
-        print(f"{name:28} {n:7d} {fmt:>7} {method:>6} {t:9.3f} {rc}")
+    base_head = f" {'baseline s':>10} {'ratio':>6}" if args.baseline else ""
+    print(f"{'sample':28} {'points':>7} {'format':>7} {'method':>6} {'median s':>9} exit{base_head}")
+    for name, n, fmt, method, t, rc, b in rows:
+        base = f" {b:10.3f} {t / b:6.2f}" if b else ""
+        print(f"{name:28} {n:7d} {fmt:>7} {method:>6} {t:9.3f} {rc:4d}{base}")
     for fmt in ("ascii", "binary"):
         ours = [r[4] for r in rows if r[2] == fmt and r[3] == "ours" and not r[0].startswith("real")]
         paper = [r[4] for r in rows if r[2] == fmt and r[3] == "paper" and not r[0].startswith("real")]
-        print(f"{fmt}: ours median {statistics.median(ours):.3f} s, paper median {statistics.median(paper):.3f} s, "
-              f"paper/ours {statistics.median(paper) / statistics.median(ours):.2f}x")
+        line = (f"{fmt}: ours median {statistics.median(ours):.3f} s, paper median {statistics.median(paper):.3f} s, "
+                f"paper/ours {statistics.median(paper) / statistics.median(ours):.2f}x")
+        if args.baseline:
+            base = [r[6] for r in rows if r[2] == fmt and r[3] == "ours" and not r[0].startswith("real")]
+            line += f"; baseline ours {statistics.median(base):.3f} s, ours/baseline {statistics.median(ours) / statistics.median(base):.2f}x"
+        print(line)
+        for r in rows:
+            if r[0].startswith("real") and r[2] == fmt and r[3] == "ours":
+                print(f"{fmt}: real scan ours {r[4]:.3f} s" + (f", baseline {r[6]:.3f} s, ratio {r[4] / r[6]:.2f}x" if r[6] else ""))
 
 
 if __name__ == "__main__":
