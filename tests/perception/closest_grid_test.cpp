@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/support/test_meshes.hpp"
+
 #include <cmath>
 #include <random>
 #include <thread>
@@ -73,22 +75,11 @@ TEST(ClosestGrid, LargeCellsForALargePartGiveTheSameAnswers) {
   expect_same_answers(rays, grid, 2, 0.07);
 }
 
-// The cube [-h, h]^3, 12 triangles, outward.
-Mesh cube(double h) {
-  Mesh m;
-  for (int i = 0; i < 8; ++i) m.vertices.emplace_back(i & 1 ? h : -h, i & 2 ? h : -h, i & 4 ? h : -h);
-  const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
-                           {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
-  for (const auto& q : quads) {
-    m.faces.emplace_back(q[0], q[1], q[2]);
-    m.faces.emplace_back(q[0], q[2], q[3]);
-  }
-  return m;
-}
+using test::cube_mesh;
 
 TEST(ClosestGrid, BeyondAnEdgeTheFaceInFrontGivesTheNormal) {
   const double h = 0.05;
-  const Mesh m = cube(h);
+  const Mesh m = cube_mesh(h);
   const MeshRays rays(m);
   const ClosestGrid grid(rays, Vec3::Constant(-h), Vec3::Constant(h), ClosestGridSetting{});
   std::mt19937 rng(4);

@@ -5,23 +5,14 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/support/test_meshes.hpp"
+
 #include <random>
 
 namespace weldtwin {
 namespace {
 
-// The cube [-h, h]^3, 12 triangles, outward.
-Mesh cube(double h) {
-  Mesh m;
-  for (int i = 0; i < 8; ++i) m.vertices.emplace_back(i & 1 ? h : -h, i & 2 ? h : -h, i & 4 ? h : -h);
-  const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
-                           {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
-  for (const auto& q : quads) {
-    m.faces.emplace_back(q[0], q[1], q[2]);
-    m.faces.emplace_back(q[0], q[2], q[3]);
-  }
-  return m;
-}
+using test::cube_mesh;
 
 double cube_distance(const Vec3& p, double h) {
   const Vec3 out = (p.cwiseAbs().array() - h).matrix();
@@ -31,7 +22,7 @@ double cube_distance(const Vec3& p, double h) {
 
 TEST(MeshRays, DistanceAndInsideMatchTheCubeEverywhere) {
   const double h = 0.05;
-  const MeshRays rays(cube(h));
+  const MeshRays rays(cube_mesh(h));
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(-0.08, 0.08);
   for (int k = 0; k < 20000; ++k) {
@@ -46,7 +37,7 @@ TEST(MeshRays, DistanceAndInsideMatchTheCubeEverywhere) {
 
 TEST(MeshRays, InsideIsRightWhereRaysMeetEdgesAndCorners) {
   const double h = 0.05;
-  const MeshRays rays(cube(h));
+  const MeshRays rays(cube_mesh(h));
   // Points from which a ray in any of many directions runs exactly through a corner or an edge's middle.
   std::vector<Vec3> targets;
   for (int i = 0; i < 8; ++i) targets.emplace_back(i & 1 ? h : -h, i & 2 ? h : -h, i & 4 ? h : -h);
