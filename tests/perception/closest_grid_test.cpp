@@ -5,11 +5,11 @@
 
 #include <gtest/gtest.h>
 
-#include "tests/support/test_meshes.hpp"
-
 #include <cmath>
 #include <random>
 #include <thread>
+
+#include "tests/support/test_meshes.hpp"
 
 namespace weldtwin {
 namespace {

@@ -5,9 +5,9 @@
 
 #include <gtest/gtest.h>
 
-#include "tests/support/test_meshes.hpp"
-
 #include <random>
+
+#include "tests/support/test_meshes.hpp"
 
 namespace weldtwin {
 namespace {
