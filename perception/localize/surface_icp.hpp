@@ -19,14 +19,17 @@ namespace weldtwin {
 
 struct SurfaceIcpSetting {
   int iterations = 20;
-  double kernel_sigmas = 2.5;      ///< Tukey's cut-off in range noise sigmas ...
-  double min_kernel_m = 0.003;     ///< ... and at least this [m]
-  int max_points = 4000;           ///< scan points used (evenly thinned)
-  double box_margin_m = 0.01;      ///< points this far beyond the model's box take part [m]
-  double converged_step_m = 1e-6;  ///< a step below this (yaw times yaw_lever_m + translation) ends it [m]
-  int coarse_stride = 4;           ///< first steps on every this many points (1: none), at most ...
-  int coarse_iterations = 15;      ///< ... this many (besides `iterations` on all of them) ...
-  double coarse_step_m = 2e-5;     ///< ... until a step is shorter than this [m]
+  double kernel_sigmas = 2.5;   ///< Tukey's cut-off in range noise sigmas ...
+  double min_kernel_m = 0.003;  ///< ... and at least this [m]
+  int max_points = 4000;        ///< scan points used (evenly thinned)
+  double box_margin_m = 0.01;   ///< points this far beyond the model's box take part [m]
+  /// A step below this (yaw times yaw_lever_m + translation) ends it: a hundredth of the range noise, against
+  /// pose bounds of hundreds of micrometres. (1 um let fits wander for their last steps: the steps minimise
+  /// the residuals, not the view prior the cost also holds.) [m]
+  double converged_step_m = 1e-5;
+  int coarse_stride = 4;        ///< first steps on every this many points (1: none), at most ...
+  int coarse_iterations = 15;   ///< ... this many (besides `iterations` on all of them) ...
+  double coarse_step_m = 2e-5;  ///< ... until a step is shorter than this [m]
   double yaw_lever_m = 0.1;
   double damping = 1e-9;  ///< added to the normal equations' diagonal
   /// A point is more likely to lie on a face a scanner sees from more directions (the part model's view
