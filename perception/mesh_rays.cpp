@@ -46,8 +46,7 @@ struct MeshRays::Impl {
 namespace {
 
 struct NearestQuery {
-  const std::vector<Vec3>* vertices;
-  const std::vector<Eigen::Vector3i>* faces;
+  const MeshRays* rays;
   Vec3 p;
   double best_sq;
   Vec3 point = Vec3::Zero();
@@ -56,10 +55,7 @@ struct NearestQuery {
 
 bool nearest_triangle(RTCPointQueryFunctionArguments* args) {
   auto* q = static_cast<NearestQuery*>(args->userPtr);
-  const Eigen::Vector3i& f = (*q->faces)[args->primID];
-  const std::vector<Vec3>& v = *q->vertices;
-  const Vec3 c = closest_on_triangle(q->p, v[static_cast<size_t>(f[0])], v[static_cast<size_t>(f[1])],
-                                     v[static_cast<size_t>(f[2])]);
+  const Vec3 c = q->rays->closest_on_face(q->p, args->primID);
   const double d2 = (c - q->p).squaredNorm();
   if (d2 >= q->best_sq) return false;
   q->best_sq = d2;
@@ -135,7 +131,7 @@ bool MeshRays::closest(const Vec3& p, double max_m, Vec3& point, Vec3& face_norm
   query.radius = static_cast<float>(max_m);
   RTCPointQueryContext ctx;
   rtcInitPointQueryContext(&ctx);
-  NearestQuery nearest{&impl_->vertices, &impl_->faces, p, max_m * max_m};
+  NearestQuery nearest{this, p, max_m * max_m};
   rtcPointQuery(impl_->scene, &query, &ctx, nearest_triangle, &nearest);
   if (nearest.best_sq >= max_m * max_m) return false;
   point = nearest.point;

@@ -2,9 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <limits>
-#include <new>
 
 namespace weldtwin {
 namespace {
@@ -14,10 +12,6 @@ constexpr double kTie = 1e-9;            // squared distances this close (relati
 constexpr double kTieFloor_m2 = 1e-20;   // ... or absolutely [m^2] are one distance
 
 }  // namespace
-
-void ClosestGrid::FreeSlots::operator()(Cell** p) const {
-  std::free(p);
-}
 
 ClosestGrid::ClosestGrid(const MeshRays& rays, const Vec3& lo, const Vec3& hi, const ClosestGridSetting& s)
     : rays_(rays), far_(s.far_m) {
@@ -30,8 +24,7 @@ ClosestGrid::ClosestGrid(const MeshRays& rays, const Vec3& lo, const Vec3& hi, c
   ny_ = static_cast<long>(extent.y() / cell_) + 1;
   nz_ = static_cast<long>(extent.z() / cell_) + 1;
   const size_t n = static_cast<size_t>(nx_) * static_cast<size_t>(ny_) * static_cast<size_t>(nz_);
-  slots_.reset(static_cast<Cell**>(std::calloc(n, sizeof(Cell*))));
-  if (!slots_) throw std::bad_alloc();
+  slots_ = zeroed_slots<Cell*>(n);
 }
 
 ClosestGrid::~ClosestGrid() = default;

@@ -4,7 +4,6 @@
 #include <array>
 #include <cmath>
 #include <map>
-#include <new>
 
 #include "core/parallel_for.hpp"
 #include "perception/localize/mesh_edges.hpp"
@@ -272,8 +271,7 @@ void build_part_model(const Mesh& mesh, double min_z, const PartModelSetting& s,
   model.cz = static_cast<int>(ext.z() / model.cache_cell) + 1;
   const size_t slots =
       static_cast<size_t>(model.cx) * static_cast<size_t>(model.cy) * static_cast<size_t>(model.cz);
-  model.cache.reset(static_cast<int*>(std::calloc(slots, sizeof(int))));
-  if (!model.cache) throw std::bad_alloc();
+  model.cache = zeroed_slots<int>(slots);
 }
 
 }  // namespace weldtwin

@@ -5,13 +5,13 @@
 // rays. Everything is in the part's resting frame: the mesh lifted so that its lowest vertex is at z = 0.
 #pragma once
 
-#include <cstdlib>
 #include <memory>
 #include <vector>
 
 #include "perception/localize/closest_grid.hpp"
 #include "perception/localize/grid2.hpp"
 #include "perception/localize/point_tree.hpp"
+#include "perception/localize/zeroed_slots.hpp"
 #include "perception/mesh_io.hpp"
 #include "perception/mesh_rays.hpp"
 
@@ -81,13 +81,9 @@ struct PartModel {
   double cache_cell = 0.001, cache_margin = 0.015;
   Vec3 cache_origin = Vec3::Zero();
   int cx = 0, cy = 0, cz = 0;
-  /// The grid's slots: 0 not asked yet, else the answer + 2. Zeroed pages straight from the system (calloc),
-  /// so that only the pages asked about are ever touched: the grid spans tens of megabytes, ICP asks about a
-  /// thin shell of it.
-  struct FreeSlots {
-    void operator()(int* p) const { std::free(p); }
-  };
-  std::unique_ptr<int[], FreeSlots> cache;
+  /// The grid's slots: 0 not asked yet, else the answer + 2 (the grid spans tens of megabytes, ICP asks
+  /// about a thin shell of it: zeroed_slots.hpp).
+  ZeroedSlots<int> cache;
 };
 
 /// Builds the model of `mesh` lifted by -min_z (faces turned outwards first: a CAD file's winding is not to
