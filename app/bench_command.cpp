@@ -36,6 +36,8 @@
 #include "perception/paper_localizer.hpp"
 #include "perception/pose_error.hpp"
 #include "perception/scan_assembly.hpp"
+#include "pipeline/outcome.hpp"
+#include "pipeline/weld_pipeline.hpp"
 #include "planning/weld_planner.hpp"
 #include "sim/cell_layout.hpp"
 #include "sim/collision_check.hpp"
@@ -58,14 +60,7 @@ CellSpec adapted(CellSpec cell, const BenchCommand& cmd) {
 }
 
 // One part's cell, loaded once by the parent (children inherit it).
-struct BenchCell {
-  CellSpec cell;
-  PartSpec part;
-  RobotModel robot;
-  SweepProgram program;
-  Mesh mesh;
-  std::vector<Vec3> seam_points;  ///< part frame, 1 mm apart
-  int symmetry = 1;
+struct BenchCell : TwinCell {
   /// The sweep's rays and their hits on what all layouts of the cell share (cast_shared_rays); null: none.
   const FixedRay* fixed_rays = nullptr;
   size_t fixed_ray_count = 0;
@@ -79,13 +74,7 @@ struct BenchCell {
   }
 
   BenchCell(const std::string& file, const BenchCommand& cmd)
-      : cell(adapted(CellSpec::load(file), cmd)),
-        part(PartSpec::load(cell.part_spec)),
-        robot(load_cell_robot(cell)),
-        program(SweepProgram::load(cmd.sweep.empty() ? cell.sweep_program : cmd.sweep, robot)),
-        mesh(load_mesh(part.mesh_path)),
-        seam_points(part.seam_points(0.001)),
-        symmetry(z_symmetry_order(mesh)) {}
+      : TwinCell(adapted(CellSpec::load(file), cmd), cmd.sweep) {}
 };
 
 // Everything a trial draws, from (seed, index) alone.
@@ -168,19 +157,11 @@ json pose_json(const PoseEstimate& p, const PoseError& e) {
   return j;
 }
 
-// The kind of a failure, for counting: the first word of the cause, roughly.
-std::string cause_kind(const std::string& cause) {
-  for (const char* k : {"crash", "timeout", "error", "part not found", "plan", "replay"})
-    if (cause.rfind(k, 0) == 0) return k;
-  if (cause.rfind("localization", 0) == 0) return "localization";
-  return "other";
-}
-
-void set_verdict(json& j, const std::vector<std::string>& reasons) {
-  j["verdict"] = reasons.empty() ? "pass" : "fail";
-  if (!reasons.empty()) {
-    j["cause"] = reasons.front();
-    j["cause_kind"] = cause_kind(reasons.front());
+void set_verdict(json& j, const std::vector<Failure>& failures) {
+  j["verdict"] = failures.empty() ? "pass" : "fail";
+  if (!failures.empty()) {
+    j["cause"] = failures.front().text();
+    j["cause_kind"] = failure_kind_name(failures.front().kind);
   }
 }
 
@@ -250,8 +231,7 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d,
   const bool mount_error = !d.mount_xyz_m.isZero() || !d.mount_rpy_rad.isZero();
   const Vec3 mm = 1e3 * d.mount_xyz_m, deg = d.mount_rpy_rad * 180.0 / kPi;
   const Iso3 delta = mount_offset({mm.x(), mm.y(), mm.z()}, {deg.x(), deg.y(), deg.z()});
-  const RobotModel real_robot = mount_error ? c.robot.with_mount_offset(lidar_link, delta) : c.robot;
-  const MujocoWorld world(c.cell, c.part, real_robot, d.layout);
+  const TwinScene twin(c, d.layout, mount_error ? delta : Iso3::Identity());
   lap("world");
   LidarSetting lidar;
   lidar.apply(c.cell.lidar_overrides, c.cell.source);
@@ -259,7 +239,7 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d,
   SweepOptions options;
   options.threads = 1;  // trials run side by side instead
   if (!mount_error) options.fixed_rays = c.fixed_rays, options.fixed_ray_count = c.fixed_ray_count;
-  SweepResult sweep = simulate_sweep(world, real_robot, c.program, lidar, options);
+  SweepResult sweep = simulate_sweep(twin.world, twin.real_robot, c.program, lidar, options);
   lap("sweep");
   if (cmd.encoder_noise_rad > 0) {
     std::mt19937_64 rng(d.encoder_seed);
@@ -272,7 +252,7 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d,
   RobotModel assembly_robot = c.robot;
   if (calibration) {
     const MountCalibration cal =
-        calibrate_in_twin(*calibration, real_robot, c.robot, d.lidar_seed + 1, options);
+        calibrate_in_twin(*calibration, twin.real_robot, c.robot, d.lidar_seed + 1, options);
     assembly_robot = c.robot.with_mount_offset(lidar_link, cal.delta);
     j["calibration"] = {
         {"translation_error_mm", rounded(1e3 * (cal.delta.translation() - delta.translation()).norm(), 1e-4)},
@@ -284,62 +264,63 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d,
   j["scan_points"] = cloud.points_base.size();
   lap("assemble");
 
-  LocalizeSetting setting;
-  setting.threads = 1;
-  const PoseEstimate ours = localize(cloud.points_base, c.prepared_part(setting), setting, c.seam_points,
-                                     cmd.viewpoints ? cloud.viewpoints_base : std::vector<Vec3>());
-  const PoseError ours_error = pose_error(c.part, ours.T_base_part, d.layout.T_base_part, c.symmetry);
-  j["ours"] = pose_json(ours, ours_error);
-  lap("ours");
-  if (cmd.paper) {
-    const PoseEstimate paper = localize_paper(cloud.points_base, c.mesh);
-    j["paper"] = pose_json(paper, pose_error(c.part, paper.T_base_part, d.layout.T_base_part, c.symmetry));
-    lap("paper");
-  }
-
-  std::vector<std::string> reasons;
-  if (!ours.found) reasons.push_back("part not found: " + ours.reason);
-  if (ours.found && ours_error.seam_max_m > 1e-3)
-    reasons.push_back("localization: seam " + std::to_string(1e3 * ours_error.seam_max_m).substr(0, 5) +
-                      " mm off the truth, and the part was accepted");
-  bool seams_under_1mm = ours.found && ours_error.seam_max_m <= 1e-3;
-  PlanSetting plan_setting;
-  WeldPlan plan;
-  if (cmd.replay && ours.found) {
-    CollisionChecker checker(world);
-    checker.add_part(c.mesh, ours.T_base_part);
-    plan_setting.collision = checker;
-    plan_setting.search_weld_window = cmd.weld_window;
-    plan = plan_welds(c.part, ours.T_base_part, c.robot, plan_setting);  // as the controller knows it
-    json p;
-    p["ok"] = plan.ok();
-    if (!plan.ok()) p["problem"] = plan.problems.front();
-    p["seams"] = plan.seams.size();
-    p["duration_s"] = rounded(plan.duration_s(), 1e-4);
-    j["plan"] = p;
-    for (const std::string& s : plan.problems) reasons.push_back("plan: " + s);
-    lap("plan");
-    if (plan.ok() && !plan.samples.empty()) {
-      ReplaySetting replay_setting;
-      replay_setting.threads = 1;
-      replay_setting.timestep_s = cmd.replay_step_s;
-      const ReplayResult r =
-          replay_plan(world, real_robot, plan, c.part, c.mesh, d.layout.T_base_part, replay_setting);
-      json rj;
-      rj["passed"] = r.passed();
-      rj["max_seam_error_mm"] = rounded(1e3 * r.max_seam_error_m, 1e-4);
-      rj["contacts"] = r.contacts.size();
-      rj["min_clearance_mm"] = rounded(1e3 * r.min_clearance_m, 1e-3);
-      if (!r.passed()) rj["failure"] = r.failures.front();
-      j["replay"] = rj;
-      for (const std::string& f : r.failures) reasons.push_back("replay: " + f);
-      seams_under_1mm = seams_under_1mm && r.max_seam_error_m <= 1e-3;
-      lap("replay");
+  WeldPipelineSetting setting;
+  setting.localize.threads = 1;
+  setting.viewpoints = cmd.viewpoints;
+  setting.plan = cmd.replay;
+  setting.planning.search_weld_window = cmd.weld_window;
+  setting.replay.threads = 1;
+  setting.replay.timestep_s = cmd.replay_step_s;
+  WeldJob job;
+  job.cell = &c;
+  job.prepared = &c.prepared_part(setting.localize);
+  job.twin = &twin;
+  job.T_base_part_twin = d.layout.T_base_part;
+  job.truth_known = true;
+  WeldPipelineHooks hooks;
+  hooks.stage_done = [&](PipelineStage stage, const WeldPipelineResult& r) {
+    switch (stage) {
+      case PipelineStage::kFind:
+        j["ours"] = pose_json(r.pose, *r.pose_error);
+        lap("ours");
+        if (cmd.paper) {  // the paper's pipeline on the same scan, beside ours
+          const PoseEstimate paper = localize_paper(cloud.points_base, c.mesh);
+          j["paper"] =
+              pose_json(paper, pose_error(c.part, paper.T_base_part, d.layout.T_base_part, c.symmetry));
+          lap("paper");
+        }
+        break;
+      case PipelineStage::kPlan: {
+        const WeldPlan& plan = *r.plan;
+        json p;
+        p["ok"] = plan.ok();
+        if (!plan.ok()) p["problem"] = plan.problems.front();
+        p["seams"] = plan.seams.size();
+        p["duration_s"] = rounded(plan.duration_s(), 1e-4);
+        j["plan"] = p;
+        lap("plan");
+        break;
+      }
+      case PipelineStage::kReplay: {
+        const ReplayResult& rr = *r.replay;
+        json rj;
+        rj["passed"] = rr.passed();
+        rj["max_seam_error_mm"] = rounded(1e3 * rr.max_seam_error_m, 1e-4);
+        rj["contacts"] = rr.contacts.size();
+        rj["min_clearance_mm"] = rounded(1e3 * rr.min_clearance_m, 1e-3);
+        if (!rr.passed()) rj["failure"] = rr.failures.front();
+        j["replay"] = rj;
+        lap("replay");
+        break;
+      }
     }
-  }
-  j["seams_under_1mm"] = seams_under_1mm;
-  set_verdict(j, reasons);
-  if (cmd.guidance && !reasons.empty() && cmd.replay && ours.found && ours_error.seam_max_m <= 1e-3) {
+  };
+  const WeldPipelineResult result =
+      weld_pipeline(cloud.points_base, cloud.viewpoints_base, job, setting, hooks);
+  const PoseEstimate& ours = result.pose;
+  j["seams_under_1mm"] = result.seams_within_tolerance;
+  set_verdict(j, result.failures);
+  if (cmd.guidance && !result.passed() && cmd.replay && ours.found && result.pose_error->seam_max_m <= 1e-3) {
     // Where the operator would be told to put it, and the trial again with the part there (the same
     // clamp sites, the clutter where it was, the same LiDAR noise).
     GuidanceSetting guide;
@@ -390,7 +371,7 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d,
     j["guidance"] = g;
     lap("guidance");
   }
-  if (!reasons.empty() && !cmd.keep_failed.empty()) {
+  if (!result.passed() && !cmd.keep_failed.empty()) {
     // What it takes to look again: `weldtwin replay DIR/plan.json CELL --seed <draw.layout_seed>` shows the
     // replay with pictures; `weldtwin localize --scan DIR/scan.pcd` the localization.
     const std::string dir = cmd.keep_failed + "/trial-" + std::to_string(d.index);
@@ -402,8 +383,9 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d,
                                       d.layout.T_base_part(r, 2), d.layout.T_base_part(r, 3)});
     std::ofstream(dir + "/pose_ours.json") << pose_to_json(ours).dump(1) << '\n';
     std::ofstream(dir + "/pose_true.json") << truth.dump(1) << '\n';
-    if (!plan.samples.empty())
-      std::ofstream(dir + "/plan.json") << plan_to_json(plan, c.part, c.robot, plan_setting).dump() << '\n';
+    if (result.plan && !result.plan->samples.empty())
+      std::ofstream(dir + "/plan.json")
+          << plan_to_json(*result.plan, c.part, c.robot, result.plan_setting).dump() << '\n';
     j["kept"] = dir;
   }
   seconds["total"] = rounded(std::chrono::duration<double>(Clock::now() - t0).count(), 1e-4);
@@ -413,7 +395,7 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d,
 
 // The line of a trial whose child did not give one.
 json failed_trial(const BenchCommand& cmd, const std::vector<BenchCell>& cells, const Draw& d,
-                  const std::string& cause, double seconds) {
+                  const Failure& cause, double seconds) {
   json j;
   j["index"] = d.index;
   j["seed"] = cmd.seed;
@@ -452,7 +434,8 @@ json trial_line(const BenchCommand& cmd, const std::vector<BenchCell>& cells, ui
   try {
     draw_trial(cmd, cells, index, d);
   } catch (const std::exception& e) {
-    return failed_trial(cmd, cells, d, std::string("error: the cell could not be drawn: ") + e.what(), 0.0);
+    return failed_trial(cmd, cells, d,
+                        {FailureKind::kError, std::string("the cell could not be drawn: ") + e.what()}, 0.0);
   }
   try {
     inject_fault(cmd.faults, index);
@@ -460,7 +443,7 @@ json trial_line(const BenchCommand& cmd, const std::vector<BenchCell>& cells, ui
     line["draw"] = draw_json(d, cells, cmd);
     return line;
   } catch (const std::exception& e) {
-    return failed_trial(cmd, cells, d, std::string("error: ") + e.what(), 0.0);
+    return failed_trial(cmd, cells, d, {FailureKind::kError, e.what()}, 0.0);
   }
 }
 
@@ -509,6 +492,18 @@ struct Worker {
 }
 
 }  // namespace
+
+json bench_trial_at(const BenchCommand& cmd, const std::string& cell_file, uint64_t layout_seed,
+                    uint64_t lidar_seed) {
+  const std::vector<BenchCell> cells{BenchCell(cell_file, cmd)};
+  Draw d;
+  d.layout_seed = layout_seed;
+  d.lidar_seed = lidar_seed;
+  d.layout = make_layout(cells[0].cell, cells[0].part, layout_seed);
+  json line = run_trial(cmd, cells[0], d, nullptr);
+  line["draw"] = draw_json(d, cells, cmd);
+  return line;
+}
 
 int run_bench(const BenchCommand& cmd_in) {
   BenchCommand cmd = cmd_in;
@@ -628,7 +623,7 @@ int run_bench(const BenchCommand& cmd_in) {
     }
   };
   // The line of a trial whose worker died or was killed.
-  auto lost = [&](size_t slot, const std::string& cause, double seconds) {
+  auto lost = [&](size_t slot, const Failure& cause, double seconds) {
     Draw d;
     try {
       draw_trial(cmd, cells, indices[slot], d);
@@ -716,7 +711,7 @@ int run_bench(const BenchCommand& cmd_in) {
         } catch (const std::exception&) {
           const size_t slot = w.slot;
           retire(w, true);
-          lost(slot, "crash: the trial's line could not be read", age);
+          lost(slot, {FailureKind::kCrash, "the trial's line could not be read"}, age);
           continue;
         }
         w.busy = false;
@@ -724,19 +719,19 @@ int run_bench(const BenchCommand& cmd_in) {
       } else if (ended) {
         const size_t slot = w.slot;
         const int status = retire(w, false);
-        std::string cause;
+        Failure cause{FailureKind::kCrash, ""};
         if (WIFSIGNALED(status))
-          cause =
-              "crash: signal " + std::to_string(WTERMSIG(status)) + " (" + strsignal(WTERMSIG(status)) + ")";
+          cause.reason =
+              "signal " + std::to_string(WTERMSIG(status)) + " (" + strsignal(WTERMSIG(status)) + ")";
         else
-          cause = "crash: exited with code " + std::to_string(WEXITSTATUS(status)) + " and no result";
+          cause.reason = "exited with code " + std::to_string(WEXITSTATUS(status)) + " and no result";
         lost(slot, cause, age);
       } else if (age > cmd.timeout_s) {
         const size_t slot = w.slot;
         retire(w, true);
         char cause[96];
-        std::snprintf(cause, sizeof cause, "timeout: killed after %.0f s", cmd.timeout_s);
-        lost(slot, cause, age);
+        std::snprintf(cause, sizeof cause, "killed after %.0f s", cmd.timeout_s);
+        lost(slot, {FailureKind::kTimeout, cause}, age);
       }
     }
   }

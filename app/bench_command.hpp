@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -50,6 +51,12 @@ struct BenchCommand {
 /// Runs the benchmark. Returns 0 when every trial was run and recorded (whatever their verdicts), 2 for bad
 /// input.
 int run_bench(const BenchCommand& cmd);
+
+/// One trial of `cell_file` laid out by `layout_seed` and swept with LiDAR noise `lidar_seed` (as `weldtwin
+/// run CELL --seed N` does with N for both), run in this process, as its bench line. For checks that the two
+/// commands agree.
+nlohmann::json bench_trial_at(const BenchCommand& cmd, const std::string& cell_file, uint64_t layout_seed,
+                              uint64_t lidar_seed);
 
 struct BenchReportCommand {
   std::vector<std::string> inputs;  ///< JSON-lines files (shards) of one benchmark

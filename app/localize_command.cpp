@@ -13,6 +13,7 @@
 #include "perception/localizer.hpp"
 #include "perception/mesh_io.hpp"
 #include "perception/paper_localizer.hpp"
+#include "pipeline/weld_pipeline.hpp"
 
 namespace weldtwin {
 
@@ -104,11 +105,14 @@ int run_localize(const LocalizeCommand& cmd) {
     cloud.swap(kept);
     viewpoints.swap(kept_viewpoints);
   }
-  // Seam points from the part spec, when given: poses that weld the same place are not ambiguous.
+  // Seam points from the part spec, when given: poses that weld the same place are not ambiguous, and its
+  // weld tolerance is the bound a pose must meet.
   const std::vector<Vec3> seam_points = part ? part->seam_points(0.001) : std::vector<Vec3>();
-  const PoseEstimate pose = cmd.method == "paper"
-                                ? localize_paper(cloud, mesh)
-                                : localize(cloud, *prepared, LocalizeSetting(), seam_points, viewpoints);
+  const PoseEstimate pose =
+      cmd.method == "paper"
+          ? localize_paper(cloud, mesh)
+          : localize(cloud, *prepared, part ? localize_setting_for(*part) : LocalizeSetting(), seam_points,
+                     viewpoints);
 
   nlohmann::json out = pose_to_json(pose);
   out["method"] = cmd.method;

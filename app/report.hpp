@@ -3,6 +3,7 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,7 +28,7 @@ struct RunRecord {
   std::vector<Vec3> cloud;          ///< base frame
   std::vector<Label> cloud_labels;  ///< truth, per point
   const PoseEstimate* pose = nullptr;
-  PoseError pose_error;
+  std::optional<PoseError> pose_error;  ///< against the truth, when known (the twin made the scan)
   const WeldPlan* plan = nullptr;
   std::string plan_sha256;  ///< of DIR/plan.json as written: the plan the robot gate lets through
   const ReplayResult* replay = nullptr;  ///< null when there was nothing to replay

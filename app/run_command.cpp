@@ -21,6 +21,8 @@
 #include "hw/scan_source.hpp"
 #include "perception/mesh_io.hpp"
 #include "perception/scan_assembly.hpp"
+#include "pipeline/outcome.hpp"
+#include "pipeline/weld_pipeline.hpp"
 #include "sim/collision_check.hpp"
 #include "sim/placement_guidance.hpp"
 #include "sim/sweep_sim.hpp"
@@ -65,11 +67,11 @@ int run_job(const RunCommand& cmd) {
   };
 
   // The cell.
-  const CellSpec cell = CellSpec::load(cell_or_default(cmd.cell));
-  const PartSpec part = PartSpec::load(cell.part_spec);
-  const RobotModel robot = load_cell_robot(cell);
-  const SweepProgram program = SweepProgram::load(cell.sweep_program, robot);
-  const Mesh mesh = load_mesh(part.mesh_path);
+  const TwinCell twin_cell(CellSpec::load(cell_or_default(cmd.cell)));
+  const CellSpec& cell = twin_cell.cell;
+  const PartSpec& part = twin_cell.part;
+  const RobotModel& robot = twin_cell.robot;
+  const SweepProgram& program = twin_cell.program;
   LidarSetting lidar;
   lidar.apply(cell.lidar_overrides, cell.source);
   if (cmd.seed) lidar.seed = *cmd.seed;
@@ -77,10 +79,6 @@ int run_job(const RunCommand& cmd) {
   // The cell as it is: in the twin, the LiDAR's mount may be put wrong on purpose.
   const bool mount_error = !cmd.mount_error_mm.empty() || !cmd.mount_error_deg.empty();
   if (mount_error && cmd.source != "sim") throw InputError("--mount-error-* is for the twin's sweep only");
-  const std::string lidar_link = SweepOptions().lidar_link;
-  const RobotModel real =
-      mount_error ? robot.with_mount_offset(lidar_link, mount_offset(cmd.mount_error_mm, cmd.mount_error_deg))
-                  : robot;
   // The scan is assembled with the URDF's mount, or the calibrated one.
   RobotModel assembly = robot;
   if (!cmd.lidar_mount.empty()) {
@@ -90,7 +88,10 @@ int run_job(const RunCommand& cmd) {
       throw input_error(cmd.lidar_mount, "the robot has no link '" + link + "'");
     assembly = robot.with_mount_offset(link, correction);
   }
-  const MujocoWorld world(cell, part, real, layout);
+  const TwinScene twin(
+      twin_cell, layout,
+      mount_error ? mount_offset(cmd.mount_error_mm, cmd.mount_error_deg) : Iso3::Identity());
+  const MujocoWorld& world = twin.world;
   // The arm: the twin, or a real controller (which sweeps a live LiDAR, and welds after the gate).
   const bool live = cmd.source.rfind("lidar:", 0) == 0;
   if (live && !cmd.execute)
@@ -102,7 +103,7 @@ int run_job(const RunCommand& cmd) {
   robot_setting.timeout_s = cmd.robot_timeout_s;
   robot_setting.stop_request = &g_stop_requested;
   robot_setting.realtime = live;
-  const SimRobotInputs twin_robot{&world, &part, &mesh, layout.T_base_part};
+  const SimRobotInputs twin_robot{&world, &part, &twin_cell.mesh, layout.T_base_part};
   const std::unique_ptr<RobotDriver> driver = make_robot_driver(cmd.robot, robot, twin_robot, robot_setting);
   const bool robot_stage = cmd.execute || cmd.robot_given;
   // Progress lines: "[k/5] name", or "[k/6] name" when a robot stage follows.
@@ -131,7 +132,7 @@ int run_job(const RunCommand& cmd) {
   // 1. The sweep.
   SimScanInputs sim;
   sim.world = &world;
-  sim.robot = &real;
+  sim.robot = &twin.real_robot;
   sim.program = &program;
   sim.lidar = lidar;
   sim.options.threads = cmd.threads;
@@ -150,7 +151,7 @@ int run_job(const RunCommand& cmd) {
       log = source->acquire();
     } catch (const RobotError& e) {
       std::printf("FAIL: robot during the sweep: %s\n", e.what());
-      return g_stop_requested ? 130 : 3;
+      return g_stop_requested ? kExitInterrupted : kExitUntrustworthy;
     }
   } else {
     log = source->acquire();
@@ -173,26 +174,16 @@ int run_job(const RunCommand& cmd) {
                 source->describe().c_str(), cloud.points_base.size(), stage_done("sweep"));
   say(step(1, "scan"), buf);
 
-  // 2. Localization, judged against the truth only the twin knows.
-  const PoseEstimate pose =
-      localize(cloud.points_base, mesh, LocalizeSetting(), part.seam_points(0.001), cloud.viewpoints_base);
-  run.pose = &pose;
-  run.pose_error = pose_error(part, pose.T_base_part, layout.T_base_part, z_symmetry_order(mesh));
-  {
-    nlohmann::json j = pose_to_json(pose);
-    j["method"] = "ours";
-    std::ofstream(cmd.out + "/pose.json") << j.dump(1) << '\n';
-  }
-  std::snprintf(buf, sizeof buf,
-                "%s: fitness %.2f, coverage %.2f, seam error %.3f mm against the truth (%.2f s)",
-                pose.found ? "found" : ("NOT found: " + pose.reason).c_str(), pose.fitness, pose.coverage,
-                1e3 * run.pose_error.seam_max_m, stage_done("localize"));
-  say(step(2, "find"), buf);
-
-  // 3. The plan, at the pose found, avoiding what the twin knows of the cell — from where the arm stands,
-  // when a real one is to execute it.
-  PlanSetting plan_setting;
-  if (cmd.execute && cmd.robot != "sim" && pose.found) {
+  // 2-4. Find the part, plan its seams, replay the plan: judged against the truth where the twin made the
+  // scan. The plan starts from where the arm stands when a real one is to execute it.
+  WeldJob job;
+  job.cell = &twin_cell;
+  job.twin = &twin;
+  job.T_base_part_twin = layout.T_base_part;
+  job.truth_known = cmd.source == "sim";
+  WeldPipelineHooks hooks;
+  hooks.before_plan = [&](PlanSetting& plan_setting) {
+    if (!cmd.execute || cmd.robot == "sim") return;
     connect();
     const JointVector q_now = driver->joint_positions();
     if (!robot.within_limits(q_now))
@@ -201,52 +192,74 @@ int run_job(const RunCommand& cmd) {
       plan_setting.start = q_now;
       say(step(3, "plan"), "from where the arm stands (not home): " + driver->describe());
     }
+  };
+  hooks.stage_done = [&](PipelineStage stage, const WeldPipelineResult& r) {
+    switch (stage) {
+      case PipelineStage::kFind: {
+        nlohmann::json j = pose_to_json(r.pose);
+        j["method"] = "ours";
+        std::ofstream(cmd.out + "/pose.json") << j.dump(1) << '\n';
+        char against[64] = "unknown: no truth outside the twin";
+        if (r.pose_error)
+          std::snprintf(against, sizeof against, "%.3f mm against the truth", 1e3 * r.pose_error->seam_max_m);
+        std::snprintf(buf, sizeof buf, "%s: fitness %.2f, coverage %.2f, seam error %s (%.2f s)",
+                      r.pose.found ? "found" : ("NOT found: " + r.pose.reason).c_str(), r.pose.fitness,
+                      r.pose.coverage, against, stage_done("localize"));
+        say(step(2, "find"), buf);
+        break;
+      }
+      case PipelineStage::kPlan: {
+        const WeldPlan& plan = *r.plan;
+        std::ofstream(cmd.out + "/plan.json")
+            << plan_to_json(plan, part, robot, r.plan_setting).dump() << '\n';
+        run.plan_sha256 = sha256_of_file(cmd.out + "/plan.json");
+        std::snprintf(buf, sizeof buf, "%s%zu seams, %.1f s, %zu samples (%.2f s)",
+                      plan.ok() ? "" : ("NOT planned: " + plan.problems.front() + "; ").c_str(),
+                      plan.seams.size(), plan.duration_s(), plan.samples.size(), stage_done("plan"));
+        say(step(3, "plan"), buf);
+        break;
+      }
+      case PipelineStage::kReplay: {
+        const ReplayResult& replay = *r.replay;
+        std::snprintf(
+            buf, sizeof buf,
+            "%s: torch to true seam max %.3f mm, tracking %.2e rad, %zu contacts, clearance %.1f mm (%.2f s)",
+            replay.passed() ? "clean" : "FAILED", 1e3 * replay.max_seam_error_m, replay.max_tracking_rad,
+            replay.contacts.size(), 1e3 * replay.min_clearance_m, stage_done("replay"));
+        say(step(4, "replay"), buf);
+        break;
+      }
+    }
+  };
+  const WeldPipelineResult result =
+      weld_pipeline(cloud.points_base, cloud.viewpoints_base, job, WeldPipelineSetting(), hooks);
+  const PoseEstimate& pose = result.pose;
+  run.pose = &pose;
+  if (result.pose_error) run.pose_error = *result.pose_error;
+  const WeldPlan no_plan;
+  run.plan = result.plan ? &*result.plan : &no_plan;
+  if (result.replay) run.replay = &*result.replay;
+  if (!result.plan) {
+    std::snprintf(buf, sizeof buf, "skipped (no pose) (%.2f s)", stage_done("plan"));
+    say(step(3, "plan"), buf);
   }
-  WeldPlan plan;
-  if (pose.found) {
-    // The table, clamps and clutter as the twin has them; the part where it was found.
-    CollisionChecker checker(world);
-    checker.add_part(mesh, pose.T_base_part);
-    plan_setting.collision = checker;
-    plan = plan_welds(part, pose.T_base_part, robot, plan_setting);
-    std::ofstream(cmd.out + "/plan.json") << plan_to_json(plan, part, robot, plan_setting).dump() << '\n';
-    run.plan_sha256 = sha256_of_file(cmd.out + "/plan.json");
-  }
-  run.plan = &plan;
-  std::snprintf(buf, sizeof buf, "%s%zu seams, %.1f s, %zu samples (%.2f s)",
-                !pose.found ? "skipped (no pose), "
-                : plan.ok() ? ""
-                            : ("NOT planned: " + plan.problems.front() + "; ").c_str(),
-                plan.seams.size(), plan.duration_s(), plan.samples.size(), stage_done("plan"));
-  say(step(3, "plan"), buf);
-
-  // 4. The replay.
-  ReplayResult replay;
-  if (pose.found && plan.ok() && !plan.samples.empty()) {
-    replay = replay_plan(world, robot, plan, part, mesh, layout.T_base_part);
-    run.replay = &replay;
-    std::snprintf(
-        buf, sizeof buf,
-        "%s: torch to true seam max %.3f mm, tracking %.2e rad, %zu contacts, clearance %.1f mm (%.2f s)",
-        replay.passed() ? "clean" : "FAILED", 1e3 * replay.max_seam_error_m, replay.max_tracking_rad,
-        replay.contacts.size(), 1e3 * replay.min_clearance_m, stage_done("replay"));
-  } else {
+  if (!result.replay) {
     std::snprintf(buf, sizeof buf, "skipped: nothing to replay (%.2f s)", stage_done("replay"));
+    say(step(4, "replay"), buf);
   }
-  say(step(4, "replay"), buf);
 
   // Where to put the part when it does not weld where it lies: the nearest placement that plans and replays
   // clean in the twin, and (with the report's pictures) the map of where it welds on the table.
   PlacementSuggestion suggestion;
   WeldabilityMap weldability;
-  if (cmd.guidance && pose.found && (!plan.ok() || (run.replay && !replay.passed()))) {
+  const Mesh& mesh = twin_cell.mesh;
+  if (cmd.guidance && pose.found && (!run.plan->ok() || (run.replay && !run.replay->passed()))) {
     CellLayout now = layout;
     now.T_base_part = pose.T_base_part;  // where it was found; the clamps and clutter as the cell has them
     GuidanceSetting guide;
-    guide.plan = plan_setting;
-    guide.plan.collision = nullptr;
+    guide.plan = result.plan_setting;
     guide.plan.start.reset();
-    suggestion = suggest_placement(cell, part, robot, mesh, now, z_symmetry_order(mesh), guide);
+    suggestion = suggest_placement(cell, part, robot, mesh, now, twin_cell.symmetry, guide);
     run.suggestion = &suggestion;
     std::snprintf(buf, sizeof buf, "%s (%d placements screened, %d planned and replayed; %.1f s)",
                   suggestion.found ? (suggestion.instruction + ": there it plans and replays clean").c_str()
@@ -270,11 +283,8 @@ int run_job(const RunCommand& cmd) {
   }
 
   // Verdict.
-  if (!pose.found) run.reasons.push_back("part not found: " + pose.reason);
-  for (const std::string& p : plan.problems) run.reasons.push_back("plan: " + p);
-  if (run.replay)
-    for (const std::string& f : replay.failures) run.reasons.push_back("replay: " + f);
-  run.passed = run.reasons.empty();
+  for (const Failure& f : result.failures) run.reasons.push_back(f.text());
+  run.passed = result.passed();
 
   // 5. The report.
   const double report_s = write_report(run, cmd.out, cmd.renders);
@@ -290,7 +300,7 @@ int run_job(const RunCommand& cmd) {
       if (!run.passed) {
         say(stage, "dry run: nothing would be sent (the run did not pass)");
       } else {
-        const JointTrajectory t = plan_trajectory(plan, cmd.out + "/plan.json");
+        const JointTrajectory t = plan_trajectory(*run.plan, cmd.out + "/plan.json");
         std::ofstream(cmd.out + "/robot_dry_run.json") << driver->dry_run(t) << '\n';
         std::snprintf(buf, sizeof buf,
                       "dry run: %zu samples (%.1f s at speed %.2f) would go to %s; requests in "
@@ -306,7 +316,7 @@ int run_job(const RunCommand& cmd) {
       } catch (const GateRefused& e) {
         std::printf("FAIL: --execute refused: %s; the plan was not sent to %s; report %s/report.html\n",
                     e.what(), driver->describe().c_str(), cmd.out.c_str());
-        return 3;
+        return kExitUntrustworthy;
       }
       say(stage, "plan " + gated.sha256.substr(0, 12) + " passed its replay: executing on " +
                      driver->describe() + " (Ctrl-C stops the arm)");
@@ -328,7 +338,7 @@ int run_job(const RunCommand& cmd) {
         write_execution_record(cmd.out + "/execution.json",
                                {driver->describe(), gated.sha256, cmd.speed_fraction, e.log(), e.what()});
         std::printf("FAIL: robot: %s; record %s/execution.json\n", e.what(), cmd.out.c_str());
-        return g_stop_requested ? 130 : 3;
+        return g_stop_requested ? kExitInterrupted : kExitUntrustworthy;
       }
       write_execution_record(cmd.out + "/execution.json",
                              {driver->describe(), gated.sha256, cmd.speed_fraction, exec, "completed"});
@@ -346,23 +356,24 @@ int run_job(const RunCommand& cmd) {
         "PASS: every arc-on torch position within %.3f mm of the true seam (max; %s)%s; report "
         "%s/report.html "
         "(%.1f s)\n",
-        1e3 * replay.max_seam_error_m, "limit 1 mm", executed.c_str(), cmd.out.c_str(), total);
-    return 0;
+        1e3 * run.replay->max_seam_error_m, tolerance_text(part.weld_tolerance_m).c_str(), executed.c_str(),
+        cmd.out.c_str(), total);
+    return kExitPassed;
   }
   std::printf("FAIL: %s; report %s/report.html (%.1f s)\n", run.reasons.front().c_str(), cmd.out.c_str(),
               total);
   // The reason on stderr too, naming the input: -q silences progress, not the verdict.
   std::fprintf(stderr, "weldtwin: %s: %s\n", cell_or_default(cmd.cell).c_str(), run.reasons.front().c_str());
-  return 3;
+  return exit_code(result.failures);
 }
 
 int run_replay(const ReplayCommand& cmd) {
-  const CellSpec cell = CellSpec::load(cell_or_default(cmd.cell));
-  const PartSpec part = PartSpec::load(cell.part_spec);
-  const RobotModel robot = load_cell_robot(cell);
-  const Mesh mesh = load_mesh(part.mesh_path);
+  const TwinCell twin_cell(CellSpec::load(cell_or_default(cmd.cell)));
+  const CellSpec& cell = twin_cell.cell;
+  const PartSpec& part = twin_cell.part;
+  const RobotModel& robot = twin_cell.robot;
   const CellLayout layout = make_layout(cell, part, cmd.seed);
-  const MujocoWorld world(cell, part, robot, layout);
+  const TwinScene twin(twin_cell, layout);
   const WeldPlan plan = read_plan(cmd.plan);
   check_plan_for_part(plan, part, cmd.plan);
   std::error_code ec;
@@ -374,27 +385,30 @@ int run_replay(const ReplayCommand& cmd) {
     std::fprintf(stderr, "replay: %s, %zu samples (%.1f s) in cell '%s'\n", cmd.plan.c_str(),
                  plan.samples.size(), plan.duration_s(), cell.name.c_str());
   const auto t0 = std::chrono::steady_clock::now();
-  const ReplayResult replay = replay_plan(world, robot, plan, part, mesh, layout.T_base_part);
+  const ReplayResult replay = replay_in_twin(twin_cell, twin, plan, layout.T_base_part);
   RunRecord run;
   run.cell = &cell;
   run.part = &part;
   run.layout = &layout;
-  run.world = &world;
+  run.world = &twin.world;
   run.plan = &plan;
   run.replay = &replay;
   run.stage_seconds.emplace_back(
       "replay", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  for (const std::string& f : replay.failures) run.reasons.push_back("replay: " + f);
-  run.passed = run.reasons.empty();
+  std::vector<Failure> failures;
+  for (const std::string& f : replay.failures) failures.push_back({FailureKind::kReplay, f});
+  for (const Failure& f : failures) run.reasons.push_back(f.text());
+  run.passed = failures.empty();
   write_report(run, cmd.out, cmd.renders);
   if (run.passed) {
-    std::printf("PASS: every arc-on torch position within %.3f mm of the seam; report %s/report.html\n",
-                1e3 * replay.max_seam_error_m, cmd.out.c_str());
-    return 0;
+    std::printf(
+        "PASS: every arc-on torch position within %.3f mm of the seam (max; %s); report %s/report.html\n",
+        1e3 * replay.max_seam_error_m, tolerance_text(part.weld_tolerance_m).c_str(), cmd.out.c_str());
+    return kExitPassed;
   }
   std::printf("FAIL: %s; report %s/report.html\n", run.reasons.front().c_str(), cmd.out.c_str());
   std::fprintf(stderr, "weldtwin: %s: %s\n", cmd.plan.c_str(), run.reasons.front().c_str());
-  return 3;
+  return exit_code(failures);
 }
 
 }  // namespace weldtwin

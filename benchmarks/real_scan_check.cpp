@@ -13,6 +13,7 @@
 #include "perception/localizer.hpp"
 #include "perception/mesh_io.hpp"
 #include "perception/paper_localizer.hpp"
+#include "pipeline/weld_pipeline.hpp"
 
 namespace weldtwin {
 namespace {
@@ -103,7 +104,7 @@ int check_real_scans(const std::string& dir, const std::string& part_spec,
   int failed = 0;
   for (const fs::path& scan : scans) {
     const std::vector<Vec3> cloud = read_cloud(scan.string());
-    const PoseEstimate ours = localize(cloud, prepared, LocalizeSetting(), seams);
+    const PoseEstimate ours = localize(cloud, prepared, localize_setting_for(part), seams);
     std::printf("real %s (%zu points): ours %s in %.2f s, seam error bound %.2f mm%s%s\n",
                 scan.filename().c_str(), cloud.size(), ours.found ? "found" : "refused", ours.seconds,
                 1e3 * ours.seam_error_bound_m, ours.found ? "" : ": ", ours.reason.c_str());
@@ -111,8 +112,8 @@ int check_real_scans(const std::string& dir, const std::string& part_spec,
     // Split-half repeatability: interleaved halves, each localized alone.
     std::vector<Vec3> half[2];
     for (size_t i = 0; i < cloud.size(); ++i) half[i % 2].push_back(cloud[i]);
-    const PoseEstimate a = localize(half[0], prepared, LocalizeSetting(), seams);
-    const PoseEstimate b = localize(half[1], prepared, LocalizeSetting(), seams);
+    const PoseEstimate a = localize(half[0], prepared, localize_setting_for(part), seams);
+    const PoseEstimate b = localize(half[1], prepared, localize_setting_for(part), seams);
     const double split = seam_distance(a.T_base_part, b.T_base_part, seams);
     std::printf(
         "  split halves: %s / %s, seams %.3f mm apart (bar %.1f mm); each half from the whole: %.3f / %.3f "

@@ -19,6 +19,9 @@ constexpr double kMaxTravelAngle = kPi / 4;  // [rad]
 constexpr double kBaseTolerance = 0.5e-3;    // the mesh's base at z = 0, its top at the height given [m]
 constexpr double kSeamMargin = 0.02;         // a seam's points at most this far outside the mesh's box [m]
 constexpr int kSeamChecks = 64;              // points checked along each seam
+// A weld tolerance is tenths of a millimetre to millimetres: below what the range noise allows no scan is
+// ever accepted, above a fillet's leg the torch misses the joint.
+constexpr double kMinWeldToleranceMm = 0.1, kMaxWeldToleranceMm = 5.0;
 
 std::string mm(double m) {
   char buf[32];
@@ -186,6 +189,15 @@ PartSpec PartSpec::parse(const std::string& yaml_path) {
                       "height " + mm(*given_height) + " but the mesh reaches " + mm(box.hi.z()) +
                           " above the table: correct it or leave it out (it is taken from the mesh)");
   part.height_m = given_height.value_or(box.hi.z());
+  if (const auto tol_mm = yaml::maybe_number(root, "weld_tolerance_mm", yaml_path)) {
+    if (!(*tol_mm >= kMinWeldToleranceMm && *tol_mm <= kMaxWeldToleranceMm))
+      throw input_error(yaml_path, "weld_tolerance_mm " + mm(1e-3 * *tol_mm) + " is not between " +
+                                       mm(1e-3 * kMinWeldToleranceMm) + " and " +
+                                       mm(1e-3 * kMaxWeldToleranceMm) +
+                                       " (the weld must land this close to "
+                                       "the seam)");
+    part.weld_tolerance_m = 1e-3 * *tol_mm;
+  }
 
   if (const YAML::Node fp = root["footprint_m"]) {
     if (!fp.IsSequence() || fp.size() < 3)

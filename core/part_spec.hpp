@@ -65,6 +65,12 @@ struct PartSpec {
   std::vector<Eigen::Vector2d> footprint;  ///< outline on the table (part frame), counter-clockwise
   std::vector<ClampSite> clamp_sites;
   std::vector<Seam> seams;
+  /// How close the weld must land: every seam point where the part was found, and every arc-on torch position
+  /// in the replay, within this of the true seam (`weld_tolerance_mm`, default 1 mm: about half the wire and
+  /// a fifth of the fillet leg of the parts here). The localizer accepts a pose when its seam error bound is
+  /// within it; the run, the benchmark and the survey judge with it and show it.
+  double weld_tolerance_m = kDefaultWeldToleranceM;
+  static constexpr double kDefaultWeldToleranceM = 1e-3;
 
   /// Loads and validates a part spec; throws InputError naming the file and the field.
   static PartSpec load(const std::string& yaml_path);

@@ -88,6 +88,24 @@ TEST(PartSpec, BadSpecsAreRejected) {
 // 0.001 mm/s), a torch pointing into the part (work angle 180 deg), a normal of 1e308 that normalised to
 // zero (the torch horizontal). Now the first two are refused naming the field, the third is the direction it
 // says.
+TEST(PartSpec, WeldToleranceIsReadInMillimetresAndKeptWithinWhatAWeldAllows) {
+  const std::string stl = test::repo("scenes/parts/tube_on_plate.stl");
+  const std::string spec = "name: p\nmodel: " + stl +
+                           "\nseams:\n  - {name: s, start: [-0.0254, -0.0254, 0.008], end: [0.0254, -0.0254, "
+                           "0.008], normal: [0, 0, 1], wall_normal: [0, -1, 0], work_angle_deg: 45, "
+                           "travel_angle_deg: 0, torch_roll_deg: free, speed_mm_s: 8}\n";
+  EXPECT_DOUBLE_EQ(PartSpec::load(write_temp("tol_default.yaml", spec)).weld_tolerance_m, 1e-3);
+  EXPECT_DOUBLE_EQ(
+      PartSpec::load(write_temp("tol_half.yaml", spec + "weld_tolerance_mm: 0.5\n")).weld_tolerance_m, 5e-4);
+  for (const char* bad : {"0", "-1", "0.05", "12", ".nan", ".inf"}) {
+    const std::string file = "tol_bad.yaml";
+    const std::string err = input_error_of(
+        [&] { PartSpec::load(write_temp(file, spec + "weld_tolerance_mm: " + std::string(bad) + "\n")); });
+    EXPECT_NE(err.find("weld_tolerance_mm"), std::string::npos) << bad << ": " << err;
+    EXPECT_NE(err.find(file), std::string::npos) << bad << ": " << err;
+  }
+}
+
 TEST(PartSpec, SeamsNoTorchCanWeldAreRejectedAndHugeDirectionsKept) {
   const std::string stl = test::repo("scenes/parts/tube_on_plate.stl");
   auto spec = [&](const std::string& normal, const std::string& work, const std::string& travel,

@@ -1,0 +1,99 @@
+// The pipeline's judgement: failures carry their kind, the part's weld tolerance is the bar everywhere, and
+// a pose is judged against the truth only where the truth is known. One twin sweep of the default cell.
+#include <gtest/gtest.h>
+
+#include "core/cell_spec.hpp"
+#include "perception/scan_assembly.hpp"
+#include "pipeline/outcome.hpp"
+#include "pipeline/weld_pipeline.hpp"
+#include "sim/sweep_sim.hpp"
+#include "tests/test_support.hpp"
+
+namespace weldtwin {
+namespace {
+
+struct Swept {
+  TwinCell cell{CellSpec::load(test::repo("scenes/cells/default.yaml"))};
+  CellLayout layout = make_layout(cell.cell, cell.part, 3);
+  TwinScene twin{cell, layout};
+  AssembledCloud cloud;
+  Swept() {
+    LidarSetting lidar;
+    lidar.apply(cell.cell.lidar_overrides, cell.cell.source);
+    lidar.seed = 3;
+    cloud =
+        assemble_scan(simulate_sweep(twin.world, twin.real_robot, cell.program, lidar, {}).log, cell.robot);
+  }
+  WeldJob job(bool truth_known, const Iso3& truth) const {
+    WeldJob j;
+    j.cell = &cell;
+    j.twin = &twin;
+    j.T_base_part_twin = truth;
+    j.truth_known = truth_known;
+    return j;
+  }
+};
+
+const Swept& swept() {
+  static const Swept s;
+  return s;
+}
+
+WeldPipelineSetting find_only() {
+  WeldPipelineSetting s;
+  s.plan = false;
+  return s;
+}
+
+TEST(WeldPipeline, APoseOffTheTruthIsALocalizationFailureOnlyWhereTheTruthIsKnown) {
+  const Swept& s = swept();
+  // The truth 3 mm from where the part lies: the pose found (where it lies) is 3 mm off it.
+  Iso3 wrong = s.layout.T_base_part;
+  wrong.translation().x() += 0.003;
+  const WeldPipelineResult judged =
+      weld_pipeline(s.cloud.points_base, s.cloud.viewpoints_base, s.job(true, wrong), find_only());
+  ASSERT_TRUE(judged.pose.found) << judged.pose.reason;
+  ASSERT_EQ(judged.failures.size(), 1u);
+  EXPECT_EQ(judged.failures[0].kind, FailureKind::kLocalization);
+  EXPECT_EQ(judged.failures[0].text().rfind("localization: seam ", 0), 0u) << judged.failures[0].text();
+  EXPECT_NEAR(judged.pose_error->seam_max_m, 0.003, 2e-4);
+  EXPECT_FALSE(judged.seams_within_tolerance);
+  EXPECT_EQ(exit_code(judged.failures), kExitUntrustworthy);
+
+  const WeldPipelineResult unknown =
+      weld_pipeline(s.cloud.points_base, s.cloud.viewpoints_base, s.job(false, wrong), find_only());
+  EXPECT_FALSE(unknown.pose_error.has_value());
+  EXPECT_TRUE(unknown.passed());
+  EXPECT_EQ(exit_code(unknown.failures), kExitPassed);
+}
+
+TEST(WeldPipeline, ThePartsWeldToleranceIsTheBarOfTheLocalizerAndTheJudgement) {
+  const Swept& s = swept();
+  const WeldPipelineResult loose = weld_pipeline(s.cloud.points_base, s.cloud.viewpoints_base,
+                                                 s.job(true, s.layout.T_base_part), find_only());
+  ASSERT_TRUE(loose.passed()) << loose.failures.front().text();
+  ASSERT_TRUE(loose.pose_error.has_value());
+  // A tolerance below this scan's own seam error bound: the same scan, the same pose, now refused.
+  TwinCell tight = s.cell;
+  tight.part.weld_tolerance_m = 0.5 * loose.pose.seam_error_bound_m;
+  WeldJob job = s.job(true, s.layout.T_base_part);
+  job.cell = &tight;
+  const WeldPipelineResult refused =
+      weld_pipeline(s.cloud.points_base, s.cloud.viewpoints_base, job, find_only());
+  ASSERT_FALSE(refused.passed());
+  EXPECT_EQ(refused.failures[0].kind, FailureKind::kPartNotFound) << refused.failures[0].text();
+  EXPECT_FALSE(refused.seams_within_tolerance);
+}
+
+TEST(Outcome, ExitCodesFollowTheFirstFailuresKind) {
+  EXPECT_EQ(exit_code({}), 0);
+  EXPECT_EQ(exit_code({{FailureKind::kPlan, "seam 'a': out of reach"}}), 3);
+  EXPECT_EQ(exit_code({{FailureKind::kRobot, "stopped"}}, true), 130);
+  EXPECT_EQ(exit_code({{FailureKind::kReplay, "contact"}, {FailureKind::kRobot, "x"}}, true), 3);
+  EXPECT_EQ((Failure{FailureKind::kPartNotFound, "no table"}).text(), "part not found: no table");
+  EXPECT_EQ(tolerance_text(1e-3), "limit 1 mm");
+  EXPECT_EQ(tolerance_text(5e-4), "limit 0.5 mm");
+}
+
+}  // namespace
+}  // namespace weldtwin
