@@ -6,7 +6,7 @@ CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 # ccache: paths relative to the checkout, so that clones elsewhere share the cache.
 export CCACHE_BASEDIR := $(CURDIR)
 
-.PHONY: setup configure build run test test-sanitize bench random-bench coverage localize-survey fuzz-build fuzz format clean
+.PHONY: install setup configure build run test test-sanitize bench random-bench coverage localize-survey fuzz-build fuzz format clean
 
 setup:
 	@bash scripts/setup
@@ -22,6 +22,11 @@ run: build
 	@mkdir -p $(OUT)
 	@$(BUILD)/app/weldtwin run scenes/cells/default.yaml --out $(OUT)/run; \
 	  status=$$?; echo "make run: report in $(OUT)/run/report.html"; exit $$status
+
+# weldtwin and its scenes under PREFIX (bin/weldtwin, share/weldtwin/scenes); it runs from there on its own.
+PREFIX ?= /usr/local
+install: build
+	@cmake --install $(BUILD) --prefix $(PREFIX) --strip
 
 test: build
 	@cd $(BUILD) && ctest --output-on-failure -j$(JOBS)

@@ -31,6 +31,7 @@
 #include "core/cell_spec.hpp"
 #include "core/cloud_io.hpp"
 #include "core/error.hpp"
+#include "core/scenes.hpp"
 #include "perception/localizer.hpp"
 #include "perception/mount_calibration.hpp"
 #include "perception/paper_localizer.hpp"
@@ -526,15 +527,14 @@ int run_bench(const BenchCommand& cmd_in) {
       throw InputError("--fault: '" + f + "' is not INDEX:crash|hang|throw");
   if (cmd.cells.empty())
     for (const char* name : {"default", "round_on_plate", "tube_tee"})
-      cmd.cells.push_back(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/" + name + ".yaml");
+      cmd.cells.push_back(scene_file(std::string("cells/") + name + ".yaml"));
   if (cmd.jobs <= 0) cmd.jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   std::vector<BenchCell> cells;
   for (const std::string& f : cmd.cells) cells.emplace_back(f, cmd);
   std::optional<CalibrationCell> calibration;
   if (cmd.calibrate)
-    calibration.emplace(
-        adapted(CellSpec::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/calibration.yaml"), cmd),
-        cells.front().robot);
+    calibration.emplace(adapted(CellSpec::load(scene_file("cells/calibration.yaml")), cmd),
+                        cells.front().robot);
 
   std::vector<uint64_t> indices;
   for (int i = cmd.shard; i < cmd.trials; i += cmd.shards) indices.push_back(static_cast<uint64_t>(i));

@@ -9,6 +9,7 @@
 #include "core/cell_robot.hpp"
 #include "core/cell_spec.hpp"
 #include "core/error.hpp"
+#include "core/scenes.hpp"
 #include "hw/scan_source.hpp"
 #include "perception/mesh_io.hpp"
 #include "perception/mount_calibration.hpp"
@@ -107,8 +108,7 @@ int run_calibrate(const CalibrateCommand& cmd) {
   const bool twin_error = !cmd.mount_error_mm.empty() || !cmd.mount_error_deg.empty();
   if (twin_error && cmd.source != "sim")
     throw InputError("--mount-error-* is for the twin's sweep (--source sim) only");
-  const CellSpec cell = CellSpec::load(
-      cmd.cell.empty() ? std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/calibration.yaml" : cmd.cell);
+  const CellSpec cell = CellSpec::load(cmd.cell.empty() ? scene_file("cells/calibration.yaml") : cmd.cell);
   const PartSpec part = PartSpec::load(cell.part_spec);
   const RobotModel robot = load_cell_robot(cell);
   const Mesh box = load_mesh(part.mesh_path);

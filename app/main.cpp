@@ -13,6 +13,8 @@
 #include "app/run_command.hpp"
 #include "app/scan_command.hpp"
 #include "core/error.hpp"
+#include "core/scenes.hpp"
+#include "pipeline/outcome.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -20,6 +22,12 @@ int main(int argc, char** argv) {
       "MuJoCo "
       "digital twin of the cell."};
   app.require_subcommand(1);
+  try {
+    app.footer("Scenes (the default cells, parts, robots and sweeps): " + weldtwin::scenes_dir() +
+               " (WELDTWIN_SCENES names another).");
+  } catch (const weldtwin::InputError& e) {
+    app.footer(std::string("Scenes: ") + e.what());
+  }
 
   weldtwin::RunCommand run;
   uint64_t run_seed = 0;
@@ -282,7 +290,7 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     std::fprintf(stderr, "weldtwin: %s (see --help)\n", e.what());
-    return 2;
+    return weldtwin::kExitBadInput;
   }
   try {
     if (bc->parsed()) {
@@ -336,13 +344,13 @@ int main(int argc, char** argv) {
     }
   } catch (const weldtwin::InputError& e) {
     std::fprintf(stderr, "weldtwin: %s\n", e.what());
-    return 2;
+    return weldtwin::kExitBadInput;
   } catch (const weldtwin::RobotError& e) {
     std::fprintf(stderr, "weldtwin: robot: %s\n", e.what());
-    return 3;
+    return weldtwin::kExitUntrustworthy;
   } catch (const weldtwin::GateRefused& e) {
     std::fprintf(stderr, "weldtwin: refused: %s\n", e.what());
-    return 3;
+    return weldtwin::kExitUntrustworthy;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "weldtwin: internal error: %s\n", e.what());
     return 1;

@@ -8,6 +8,7 @@
 #include "core/geometry.hpp"
 #include "core/part_spec.hpp"
 #include "core/robot_model.hpp"
+#include "core/scenes.hpp"
 #include "planning/weld_planner.hpp"
 
 namespace weldtwin {
@@ -23,7 +24,7 @@ struct PlanCommand {
 
 /// The cell file given, or the default cell of the repository when none was.
 inline std::string cell_or_default(const std::string& cell) {
-  return cell.empty() ? std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml" : cell;
+  return cell.empty() ? scene_file("cells/default.yaml") : cell;
 }
 
 /// The plan JSON of docs/design.md.

@@ -11,6 +11,7 @@
 #include "core/cell_robot.hpp"
 #include "core/error.hpp"
 #include "core/mesh_file.hpp"
+#include "core/scenes.hpp"
 #include "sim/weldability_picture.hpp"
 
 namespace weldtwin {
@@ -71,8 +72,7 @@ int run_reach(const ReachCommand& cmd) {
     throw InputError("--grid-mm must be 5-200 mm (got " + std::to_string(cmd.grid_mm) + ")");
   if (!(cmd.yaw_step_deg >= 1.0 && cmd.yaw_step_deg <= 180.0))
     throw InputError("--yaw-step-deg must be 1-180 deg (got " + std::to_string(cmd.yaw_step_deg) + ")");
-  const std::string cell_file =
-      cmd.cell.empty() ? std::string(WELDTWIN_SOURCE_DIR) + "/scenes/cells/default.yaml" : cmd.cell;
+  const std::string cell_file = cmd.cell.empty() ? scene_file("cells/default.yaml") : cmd.cell;
   const CellSpec cell = cell_for_part(cell_file, cmd.part, cmd.robot);
   const PartSpec part = PartSpec::load(cell.part_spec);
   const RobotModel robot = load_cell_robot(cell);
