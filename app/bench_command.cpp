@@ -94,6 +94,9 @@ uint64_t splitmix64(uint64_t x) {
   return x ^ (x >> 31);
 }
 
+// A pose counts as a success when turned by at most this (and its seams within the weld tolerance).
+constexpr double kMaxRotationRad = deg2rad(0.5);
+
 // Numbers in the lines: rounded, so that the files are short and read well.
 double rounded(double v, double unit) {
   const double per = std::round(1.0 / unit);  // a power of ten: the quotient is the nearest double
@@ -146,7 +149,7 @@ json draw_json(const Draw& d, const std::vector<BenchCell>& cells, const BenchCo
   return j;
 }
 
-json pose_json(const PoseEstimate& p, const PoseError& e) {
+json pose_json(const PoseEstimate& p, const PoseError& e, double weld_tolerance_m) {
   json j;
   j["found"] = p.found;
   if (!p.found) j["reason"] = p.reason;
@@ -154,7 +157,7 @@ json pose_json(const PoseEstimate& p, const PoseError& e) {
   j["seam_mean_mm"] = rounded(1e3 * e.seam_mean_m, 1e-4);
   j["rotation_deg"] = rounded(rad2deg(e.rotation_rad), 1e-5);
   j["fitness"] = rounded(p.fitness, 1e-4);
-  j["success"] = p.found && e.seam_max_m <= 1e-3 && e.rotation_rad <= deg2rad(0.5);
+  j["success"] = p.found && e.seam_max_m <= weld_tolerance_m && e.rotation_rad <= kMaxRotationRad;
   return j;
 }
 
@@ -282,12 +285,13 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d,
   hooks.stage_done = [&](PipelineStage stage, const WeldPipelineResult& r) {
     switch (stage) {
       case PipelineStage::kFind:
-        j["ours"] = pose_json(r.pose, *r.pose_error);
+        j["ours"] = pose_json(r.pose, *r.pose_error, c.part.weld_tolerance_m);
         lap("ours");
         if (cmd.paper) {  // the paper's pipeline on the same scan, beside ours
           const PoseEstimate paper = localize_paper(cloud.points_base, c.mesh);
           j["paper"] =
-              pose_json(paper, pose_error(c.part, paper.T_base_part, d.layout.T_base_part, c.symmetry));
+              pose_json(paper, pose_error(c.part, paper.T_base_part, d.layout.T_base_part, c.symmetry),
+                        c.part.weld_tolerance_m);
           lap("paper");
         }
         break;
@@ -321,7 +325,8 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d,
   const PoseEstimate& ours = result.pose;
   j["seams_under_1mm"] = result.seams_within_tolerance;
   set_verdict(j, result.failures);
-  if (cmd.guidance && !result.passed() && cmd.replay && ours.found && result.pose_error->seam_max_m <= 1e-3) {
+  if (cmd.guidance && !result.passed() && cmd.replay && ours.found &&
+      result.pose_error->seam_max_m <= c.part.weld_tolerance_m) {
     // Where the operator would be told to put it, and the trial again with the part there (the same
     // clamp sites, the clutter where it was, the same LiDAR noise).
     GuidanceSetting guide;
