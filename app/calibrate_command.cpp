@@ -13,6 +13,7 @@
 #include "hw/scan_source.hpp"
 #include "perception/mesh_io.hpp"
 #include "perception/mount_calibration.hpp"
+#include "pipeline/outcome.hpp"
 #include "sim/cell_layout.hpp"
 
 namespace weldtwin {
@@ -168,9 +169,9 @@ int run_calibrate(const CalibrateCommand& cmd) {
   if (!cal.converged || cal.rms_m > 0.004) {
     std::printf("UNTRUSTWORTHY: %s\n",
                 !cal.converged ? "the fit did not converge" : "residuals above 4 mm rms");
-    return 3;
+    return kExitUntrustworthy;
   }
-  return 0;
+  return kExitPassed;
 }
 
 }  // namespace weldtwin

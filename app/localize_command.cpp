@@ -13,6 +13,7 @@
 #include "perception/localizer.hpp"
 #include "perception/mesh_io.hpp"
 #include "perception/paper_localizer.hpp"
+#include "pipeline/outcome.hpp"
 #include "pipeline/weld_pipeline.hpp"
 
 namespace weldtwin {
@@ -128,9 +129,9 @@ int run_localize(const LocalizeCommand& cmd) {
                  pose.fitness, 1e3 * pose.rmse_m, pose.coverage, pose.ambiguity, cmd.out.c_str());
   if (!pose.found) {
     std::fprintf(stderr, "weldtwin: %s: part not found: %s\n", cmd.scan.c_str(), pose.reason.c_str());
-    return 3;
+    return kExitUntrustworthy;
   }
-  return 0;
+  return kExitPassed;
 }
 
 }  // namespace weldtwin

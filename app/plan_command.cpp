@@ -11,6 +11,7 @@
 #include "core/error.hpp"
 #include "core/part_spec.hpp"
 #include "perception/mesh_io.hpp"
+#include "pipeline/outcome.hpp"
 #include "planning/weld_planner.hpp"
 #include "sim/cell_layout.hpp"
 #include "sim/collision_check.hpp"
@@ -127,9 +128,9 @@ int run_plan(const PlanCommand& cmd) {
   }
   if (!plan.ok()) {
     std::fprintf(stderr, "weldtwin: %s: %s\n", cmd.part.c_str(), plan.problems.front().c_str());
-    return 3;
+    return kExitUntrustworthy;
   }
-  return 0;
+  return kExitPassed;
 }
 
 }  // namespace weldtwin
