@@ -35,9 +35,10 @@ test: build
 # with every report fatal (leaks too, but for the third-party ones tests/sanitize/lsan.supp names; a SEGV is
 # left to kill the process, as bench's injected crash must). Trimmed of what only repeats the end-to-end runs
 # at ten times the cost (run_<cell>: ten weldtwin runs each; the examples; the browser test; the cluster
-# tests) and of the instrumentation of the three files that instantiate PCL's templates
+# tests; the install tree's run and run-against-bench agreement, whose stages weld_pipeline_test runs in
+# process) and of the instrumentation of the three files that instantiate PCL's templates
 # (perception/CMakeLists.txt); every reader's test runs.
-SANITIZE_SKIP ?= ^(run_|example_|report_browser_test|cluster_bench_)
+SANITIZE_SKIP ?= ^(run_|example_|report_browser_test|cluster_bench_|install_test|pipeline_agreement_test)
 test-sanitize: setup
 	@cmake -S . -B $(BUILD)-sanitize -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" \
 	  -DCMAKE_C_FLAGS_DEBUG="-O1 -g1" -DWELDTWIN_SANITIZE=ON -DWELDTWIN_BUILD_BENCHMARKS=OFF >/dev/null
