@@ -27,7 +27,6 @@
 #include "app/calibrate_command.hpp"
 #include "app/localize_command.hpp"
 #include "app/plan_command.hpp"
-#include "core/cell_robot.hpp"
 #include "core/cell_spec.hpp"
 #include "core/cloud_io.hpp"
 #include "core/error.hpp"
@@ -41,7 +40,6 @@
 #include "pipeline/weld_pipeline.hpp"
 #include "planning/weld_planner.hpp"
 #include "sim/cell_layout.hpp"
-#include "sim/collision_check.hpp"
 #include "sim/placement_guidance.hpp"
 #include "sim/replay.hpp"
 #include "sim/sweep_sim.hpp"
@@ -235,7 +233,7 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d,
   const bool mount_error = !d.mount_xyz_m.isZero() || !d.mount_rpy_rad.isZero();
   const Vec3 mm = 1e3 * d.mount_xyz_m, deg = d.mount_rpy_rad * 180.0 / kPi;
   const Iso3 delta = mount_offset({mm.x(), mm.y(), mm.z()}, {deg.x(), deg.y(), deg.z()});
-  const TwinScene twin(c, d.layout, mount_error ? delta : Iso3::Identity());
+  const TwinScene twin(c, d.layout, delta);  // no error drawn: the identity
   lap("world");
   LidarSetting lidar;
   lidar.apply(c.cell.lidar_overrides, c.cell.source);
