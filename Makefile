@@ -6,7 +6,7 @@ CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 # ccache: paths relative to the checkout, so that clones elsewhere share the cache.
 export CCACHE_BASEDIR := $(CURDIR)
 
-.PHONY: install setup configure build run test test-sanitize bench random-bench coverage localize-survey fuzz-build fuzz format clean
+.PHONY: install setup configure build run test test-sanitize test-without-options bench random-bench coverage localize-survey fuzz-build fuzz format clean
 
 setup:
 	@bash scripts/setup
@@ -46,6 +46,14 @@ test-sanitize: setup
 	@cd $(BUILD)-sanitize && ASAN_OPTIONS=detect_leaks=1:handle_segv=0:detect_stack_use_after_return=0 \
 	  LSAN_OPTIONS=suppressions=$(CURDIR)/tests/sanitize/lsan.supp:print_suppressions=0 \
 	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 ctest --output-on-failure -j$(JOBS) -E '$(SANITIZE_SKIP)'
+
+# weldtwin built without its optional parts (ROS bags, OMPL, OSMesa: WELDTWIN_WITH_*=OFF): it links none of
+# them, welds the default cell, and says "built without ..." where one is asked for.
+test-without-options: setup
+	@cmake -S . -B $(BUILD)-minimal $(CMAKE_FLAGS) -DWELDTWIN_WITH_ROSBAG=OFF -DWELDTWIN_WITH_OMPL=OFF \
+	  -DWELDTWIN_WITH_OSMESA=OFF -DWELDTWIN_BUILD_TESTS=OFF -DWELDTWIN_BUILD_BENCHMARKS=OFF >/dev/null
+	@cmake --build $(BUILD)-minimal -j$(JOBS) --target weldtwin
+	@bash tests/app/without_options_test.sh $(BUILD)-minimal/app/weldtwin
 
 bench: build
 	$(BUILD)/benchmarks/weldtwin_bench --benchmark_min_time=0.5

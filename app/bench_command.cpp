@@ -24,9 +24,10 @@
 #include <thread>
 #include <utility>
 
-#include "app/calibrate_command.hpp"
-#include "app/localize_command.hpp"
-#include "app/plan_command.hpp"
+#include "app/json_file.hpp"
+#include "app/mount_file.hpp"
+#include "app/plan_file.hpp"
+#include "app/pose_file.hpp"
 #include "core/cell_spec.hpp"
 #include "core/cloud_io.hpp"
 #include "core/error.hpp"
@@ -381,15 +382,11 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d,
     const std::string dir = cmd.keep_failed + "/trial-" + std::to_string(d.index);
     std::filesystem::create_directories(dir);
     write_pcd(dir + "/scan.pcd", cloud.points_base, false, &cloud.viewpoints_base);
-    json truth = {{"T_base_part", json::array()}};
-    for (int r = 0; r < 4; ++r)
-      truth["T_base_part"].push_back({d.layout.T_base_part(r, 0), d.layout.T_base_part(r, 1),
-                                      d.layout.T_base_part(r, 2), d.layout.T_base_part(r, 3)});
-    std::ofstream(dir + "/pose_ours.json") << pose_to_json(ours).dump(1) << '\n';
-    std::ofstream(dir + "/pose_true.json") << truth.dump(1) << '\n';
+    write_json_file(dir + "/pose_ours.json", pose_to_json(ours));
+    write_json_file(dir + "/pose_true.json", true_pose_json(d.layout.T_base_part));
     if (result.plan && !result.plan->samples.empty())
-      std::ofstream(dir + "/plan.json")
-          << plan_to_json(*result.plan, c.part, c.robot, result.plan_setting).dump() << '\n';
+      write_json_file(dir + "/plan.json", plan_to_json(*result.plan, c.part, c.robot, result.plan_setting),
+                      -1);
     j["kept"] = dir;
   }
   seconds["total"] = rounded(std::chrono::duration<double>(Clock::now() - t0).count(), 1e-4);

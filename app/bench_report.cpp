@@ -12,6 +12,7 @@
 
 #include "app/bench_command.hpp"
 #include "app/html_page.hpp"
+#include "app/json_file.hpp"
 #include "core/error.hpp"
 
 namespace weldtwin {
@@ -305,7 +306,7 @@ int run_bench_report(const BenchReportCommand& cmd) {
     for (const auto& [index, j] : trials) merged << j.dump() << '\n';
   }
   const json s = summarise(trials, seed);
-  std::ofstream(cmd.out + "/summary.json") << s.dump(1) << '\n';
+  write_json_file(cmd.out + "/summary.json", s);
   const auto figures = plots(trials, cmd.out);
 
   const json& all = s["overall"];

@@ -6,6 +6,8 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "app/json_file.hpp"
+#include "app/mount_file.hpp"
 #include "core/cell_robot.hpp"
 #include "core/cell_spec.hpp"
 #include "core/error.hpp"
@@ -18,17 +20,6 @@
 
 namespace weldtwin {
 namespace {
-
-// Roll, pitch, yaw [deg] of R = Rz(yaw) Ry(pitch) Rx(roll), as URDF's rpy.
-Vec3 rpy_deg(const Mat3& R) {
-  const Vec3 ypr = R.eulerAngles(2, 1, 0);
-  Vec3 rpy(ypr[2], ypr[1], ypr[0]);
-  // eulerAngles keeps the first angle in [0, pi]: fold to the small-angle branch.
-  if (std::abs(rpy[0]) > kPi / 2)
-    rpy = Vec3(rpy[0] - kPi * (rpy[0] > 0 ? 1 : -1), kPi - rpy[1], rpy[2] - kPi);
-  for (int i = 0; i < 3; ++i) rpy[i] = std::remainder(rpy[i], 2 * kPi);
-  return rpy * 180.0 / kPi;
-}
 
 // Writes `urdf` again with the origin of the joint whose child is `link` replaced by `origin`; every other
 // element as it was (parsed and written by TinyXML, which urdfdom reads with).
@@ -76,31 +67,6 @@ void write_urdf_with_mount(const std::string& urdf_xml, const std::string& sourc
 
 }  // namespace
 
-Iso3 mount_offset(const std::vector<double>& mm, const std::vector<double>& deg) {
-  Iso3 d = Iso3::Identity();
-  if (!mm.empty()) d.translate(1e-3 * Vec3(mm.at(0), mm.at(1), mm.at(2)));
-  if (!deg.empty())
-    d.rotate(Eigen::AngleAxisd(deg2rad(deg.at(2)), Vec3::UnitZ()) *
-             Eigen::AngleAxisd(deg2rad(deg.at(1)), Vec3::UnitY()) *
-             Eigen::AngleAxisd(deg2rad(deg.at(0)), Vec3::UnitX()));
-  return d;
-}
-
-Iso3 read_mount_correction(const std::string& path, std::string& link) {
-  std::ifstream in(path);
-  if (!in) throw input_error(path, "cannot be read");
-  try {
-    const nlohmann::json j = nlohmann::json::parse(in);
-    link = j.at("lidar_link").get<std::string>();
-    const auto xyz = j.at("correction").at("xyz_m").get<std::vector<double>>();
-    const auto rpy = j.at("correction").at("rpy_deg").get<std::vector<double>>();
-    if (xyz.size() != 3 || rpy.size() != 3) throw std::runtime_error("xyz_m and rpy_deg take three numbers");
-    return mount_offset({1e3 * xyz[0], 1e3 * xyz[1], 1e3 * xyz[2]}, rpy);
-  } catch (const std::exception& e) {
-    throw input_error(path, std::string("not a mount JSON of weldtwin calibrate: ") + e.what());
-  }
-}
-
 int run_calibrate(const CalibrateCommand& cmd) {
   if (cmd.out.empty()) throw InputError("calibrate: --out (the mount JSON to write) is needed");
   for (const auto* v : {&cmd.mount_error_mm, &cmd.mount_error_deg})
@@ -133,10 +99,7 @@ int run_calibrate(const CalibrateCommand& cmd) {
   const MountCalibration cal = calibrate_mount(log, robot, setting, cmd.source);
 
   const Vec3 t = cal.delta.translation(), r = rpy_deg(cal.delta.linear());
-  nlohmann::json j;
-  j["lidar_link"] = log.lidar_frame;
-  j["correction"] = {{"xyz_m", {t.x(), t.y(), t.z()}}, {"rpy_deg", {r.x(), r.y(), r.z()}}};
-  j["note"] = "the LiDAR link's URDF origin, right-multiplied by this correction, is the calibrated mount";
+  nlohmann::json j = mount_correction_json({log.lidar_frame, cal.delta});
   j["box"] = {{"x_m", cal.T_base_box.translation().x()},
               {"y_m", cal.T_base_box.translation().y()},
               {"yaw_deg", rad2deg(std::atan2(cal.T_base_box.linear()(1, 0), cal.T_base_box.linear()(0, 0)))}};
@@ -149,7 +112,7 @@ int run_calibrate(const CalibrateCommand& cmd) {
     const double dr = rad2deg(Eigen::AngleAxisd(cal.delta.linear().transpose() * error.linear()).angle());
     j["twin_check"] = {{"translation_error_mm", 1e3 * dt}, {"rotation_error_deg", dr}};
   }
-  std::ofstream(cmd.out) << j.dump(1) << '\n';
+  write_json_file(cmd.out, j);
   if (!cmd.urdf_out.empty()) {
     const RobotLink& l = robot.links()[static_cast<size_t>(robot.require_link(log.lidar_frame))];
     write_urdf_with_mount(cell_robot_urdf(cell), cell.robot_urdf, cell.robot_package_dirs, log.lidar_frame,

@@ -25,11 +25,4 @@ struct CalibrateCommand {
 /// 0: calibrated; 3: the fit is not to be trusted (the report says why). Throws InputError for bad input.
 int run_calibrate(const CalibrateCommand& cmd);
 
-/// A mount offset from translation [mm] and roll, pitch, yaw [deg] (either may be empty: zero).
-Iso3 mount_offset(const std::vector<double>& xyz_mm, const std::vector<double>& rpy_deg);
-
-/// The correction of a mount JSON as `weldtwin calibrate` writes it, and the link it is for. Throws
-/// InputError naming the file.
-Iso3 read_mount_correction(const std::string& path, std::string& link);
-
 }  // namespace weldtwin

@@ -1,16 +1,10 @@
 // `weldtwin localize`: find the part's mesh in a base-frame cloud of a table scene and write the pose JSON.
 #pragma once
 
-#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 namespace weldtwin {
-
-struct PoseEstimate;
-
-/// The pose JSON of docs/design.md with every figure of the estimate.
-nlohmann::json pose_to_json(const PoseEstimate& pose);
 
 struct LocalizeCommand {
   std::string model;            ///< part mesh (STL, PLY, OBJ)

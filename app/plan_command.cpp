@@ -6,10 +6,14 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "app/json_file.hpp"
+#include "app/plan_file.hpp"
+#include "app/pose_file.hpp"
 #include "core/cell_robot.hpp"
 #include "core/cell_spec.hpp"
 #include "core/error.hpp"
 #include "core/part_spec.hpp"
+#include "core/scenes.hpp"
 #include "perception/mesh_io.hpp"
 #include "pipeline/outcome.hpp"
 #include "planning/weld_planner.hpp"
@@ -18,55 +22,6 @@
 #include "sim/mujoco_world.hpp"
 
 namespace weldtwin {
-
-namespace {
-
-nlohmann::json pose_json(const Iso3& T) {
-  const Quat q(T.linear());
-  return {T.translation().x(), T.translation().y(), T.translation().z(), q.w(), q.x(), q.y(), q.z()};
-}
-
-}  // namespace
-
-nlohmann::json plan_to_json(const WeldPlan& plan, const PartSpec& part, const RobotModel& robot,
-                            const PlanSetting& setting) {
-  nlohmann::json out;
-  out["part"] = part.name;
-  out["robot"] = robot.name();
-  out["ok"] = plan.ok();
-  out["problems"] = plan.problems;
-  out["notes"] = plan.notes;
-  out["sample_hz"] = setting.sample_hz;
-  out["duration_s"] = plan.duration_s();
-  out["T_flange_tcp"] = nlohmann::json::array();
-  for (int r = 0; r < 4; ++r)
-    out["T_flange_tcp"].push_back({plan.T_flange_tcp.matrix()(r, 0), plan.T_flange_tcp.matrix()(r, 1),
-                                   plan.T_flange_tcp.matrix()(r, 2), plan.T_flange_tcp.matrix()(r, 3)});
-  for (const PlannedSeam& s : plan.seams) {
-    nlohmann::json rolls = nlohmann::json::array();
-    for (double r : s.roll_per_piece_rad) rolls.push_back(r * 180.0 / kPi);
-    out["seams"].push_back({{"name", s.name},
-                            {"start_base", {s.start_base.x(), s.start_base.y(), s.start_base.z()}},
-                            {"end_base", {s.end_base.x(), s.end_base.y(), s.end_base.z()}},
-                            {"length_m", s.length_m},
-                            {"speed_m_s", s.speed_m_s},
-                            {"pieces", s.pieces},
-                            {"torch_roll_deg", rolls},
-                            {"work_angle_deg", s.work_angle_rad * 180.0 / kPi},
-                            {"travel_angle_deg", s.travel_angle_rad * 180.0 / kPi},
-                            {"reversed", s.reversed}});
-  }
-  nlohmann::json samples = nlohmann::json::array();
-  for (const PlanSample& s : plan.samples)
-    samples.push_back({{"t", s.t_s},
-                       {"q", {s.q[0], s.q[1], s.q[2], s.q[3], s.q[4], s.q[5]}},
-                       {"tcp", pose_json(s.T_base_tcp)},
-                       {"seam", s.seam},
-                       {"arc", s.arc},
-                       {"phase", phase_name(s.phase)}});
-  out["samples"] = std::move(samples);
-  return out;
-}
 
 int run_plan(const PlanCommand& cmd) {
   const CellSpec cell = CellSpec::load(cell_or_default(cmd.cell));
@@ -102,7 +57,7 @@ int run_plan(const PlanCommand& cmd) {
 
   nlohmann::json out = plan_to_json(plan, part, robot, setting);
   out["collisions_checked"] = checked;
-  std::ofstream(cmd.out) << out.dump() << '\n';
+  write_json_file(cmd.out, out, -1);
   if (!cmd.csv.empty()) {
     std::ofstream csv(cmd.csv);
     csv << "t,j1,j2,j3,j4,j5,j6\n";

@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "app/json_file.hpp"
 #include "core/cell_robot.hpp"
 #include "core/error.hpp"
 #include "core/mesh_file.hpp"
@@ -89,7 +90,7 @@ int run_reach(const ReachCommand& cmd) {
         if (!cmd.quiet) std::fprintf(stderr, "\rreach: %zu / %zu placements with room judged", done, total);
       });
   if (!cmd.quiet) std::fprintf(stderr, "\n");
-  std::ofstream(cmd.out + "/map.json") << map_to_json(map).dump() << '\n';
+  write_json_file(cmd.out + "/map.json", map_to_json(map), -1);
   weldability_picture(map).write_png(cmd.out + "/map.png");
   const size_t roomy = map.placements.size() - map.count(PlacementKind::kNoRoom);
   std::printf(

@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "app/html_page.hpp"
+#include "app/json_file.hpp"
 #include "pipeline/outcome.hpp"
 #include "sim/renderer.hpp"
 #include "sim/weldability_picture.hpp"
@@ -20,12 +21,6 @@ namespace {
 
 using html::num;
 const auto& html_escape = html::escape;
-
-nlohmann::json matrix(const Iso3& T) {
-  nlohmann::json rows = nlohmann::json::array();
-  for (int r = 0; r < 4; ++r) rows.push_back({T(r, 0), T(r, 1), T(r, 2), T(r, 3)});
-  return rows;
-}
 
 Rgba label_colour(Label l) {
   switch (l) {
@@ -224,13 +219,13 @@ nlohmann::json report_json(const RunRecord& run) {
   j["seed"] = run.layout->seed ? nlohmann::json(*run.layout->seed) : nlohmann::json(nullptr);
   j["part"] = run.part->name;
   j["weld_tolerance_m"] = run.part->weld_tolerance_m;
-  j["T_base_part_true"] = matrix(run.layout->T_base_part);
+  j["T_base_part_true"] = transform_json(run.layout->T_base_part);
   j["clamps"] = run.layout->clamps.size();
   j["scan_points"] = run.cloud.size();
   if (run.pose) {
     j["localization"] = {{"found", run.pose->found},
                          {"reason", run.pose->reason},
-                         {"T_base_part", matrix(run.pose->T_base_part)},
+                         {"T_base_part", transform_json(run.pose->T_base_part)},
                          {"fitness", run.pose->fitness},
                          {"rmse_m", run.pose->rmse_m},
                          {"coverage", run.pose->coverage},
@@ -337,7 +332,7 @@ double write_report(const RunRecord& run, const std::string& dir, bool renders) 
   j["stage_seconds"]["report"] = seconds;
   j["stage_seconds"]["report_pictures"] = render_s;
   j["stage_seconds"]["report_plots"] = seconds - render_s;
-  std::ofstream(dir + "/report.json") << j.dump(1) << '\n';
+  write_json_file(dir + "/report.json", j);
 
   const double tolerance_m = run.part->weld_tolerance_m;
   std::ostringstream h;

@@ -8,7 +8,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
-#include "app/plan_command.hpp"
+#include "app/plan_file.hpp"
 #include "core/error.hpp"
 
 namespace weldtwin {

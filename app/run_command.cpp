@@ -7,14 +7,16 @@
 #include <filesystem>
 #include <fstream>
 
-#include "app/calibrate_command.hpp"
-#include "app/localize_command.hpp"
-#include "app/plan_command.hpp"
+#include "app/json_file.hpp"
+#include "app/mount_file.hpp"
+#include "app/plan_file.hpp"
+#include "app/pose_file.hpp"
 #include "app/report.hpp"
 #include "app/robot_gate.hpp"
 #include "core/cell_spec.hpp"
 #include "core/cloud_io.hpp"
 #include "core/error.hpp"
+#include "core/scenes.hpp"
 #include "hw/execution_record.hpp"
 #include "hw/robot_driver.hpp"
 #include "hw/scan_source.hpp"
@@ -80,11 +82,10 @@ int run_job(const RunCommand& cmd) {
   // The scan is assembled with the URDF's mount, or the calibrated one.
   RobotModel assembly = robot;
   if (!cmd.lidar_mount.empty()) {
-    std::string link;
-    const Iso3 correction = read_mount_correction(cmd.lidar_mount, link);
-    if (robot.link_index(link) < 0)
-      throw input_error(cmd.lidar_mount, "the robot has no link '" + link + "'");
-    assembly = robot.with_mount_offset(link, correction);
+    const MountCorrection mount = read_mount_file(cmd.lidar_mount);
+    if (robot.link_index(mount.lidar_link) < 0)
+      throw input_error(cmd.lidar_mount, "the robot has no link '" + mount.lidar_link + "'");
+    assembly = robot.with_mount_offset(mount.lidar_link, mount.correction);
   }
   const TwinScene twin(
       twin_cell, layout,
@@ -196,7 +197,7 @@ int run_job(const RunCommand& cmd) {
       case PipelineStage::kFind: {
         nlohmann::json j = pose_to_json(r.pose);
         j["method"] = "ours";
-        std::ofstream(cmd.out + "/pose.json") << j.dump(1) << '\n';
+        write_json_file(cmd.out + "/pose.json", j);
         char against[64] = "unknown: no truth outside the twin";
         if (r.pose_error)
           std::snprintf(against, sizeof against, "%.3f mm against the truth", 1e3 * r.pose_error->seam_max_m);
@@ -208,8 +209,7 @@ int run_job(const RunCommand& cmd) {
       }
       case PipelineStage::kPlan: {
         const WeldPlan& plan = *r.plan;
-        std::ofstream(cmd.out + "/plan.json")
-            << plan_to_json(plan, part, robot, r.plan_setting).dump() << '\n';
+        write_json_file(cmd.out + "/plan.json", plan_to_json(plan, part, robot, r.plan_setting), -1);
         run.plan_sha256 = sha256_of_file(cmd.out + "/plan.json");
         std::snprintf(buf, sizeof buf, "%s%zu seams, %.1f s, %zu samples (%.2f s)",
                       plan.ok() ? "" : ("NOT planned: " + plan.problems.front() + "; ").c_str(),

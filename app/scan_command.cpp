@@ -6,6 +6,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "app/json_file.hpp"
 #include "core/cell_robot.hpp"
 #include "core/cell_spec.hpp"
 #include "core/cloud_io.hpp"
@@ -17,20 +18,6 @@
 #include "sim/sweep_sim.hpp"
 
 namespace weldtwin {
-namespace {
-
-nlohmann::json matrix_json(const Iso3& T) {
-  nlohmann::json rows = nlohmann::json::array();
-  for (int r = 0; r < 4; ++r) {
-    nlohmann::json row = nlohmann::json::array();
-    for (int c = 0; c < 4; ++c) row.push_back(T.matrix()(r, c));
-    rows.push_back(row);
-  }
-  return rows;
-}
-
-}  // namespace
-
 int run_scan(const ScanCommand& cmd) {
   auto say = [&](const std::string& line) {
     if (!cmd.quiet) std::fprintf(stderr, "scan: %s\n", line.c_str());
@@ -98,9 +85,9 @@ int run_scan(const ScanCommand& cmd) {
   truth["part"] = part.name;
   truth["part_spec"] = part.source;
   truth["part_mesh"] = part.mesh_path;
-  truth["T_base_part"] = matrix_json(layout.T_base_part);
+  truth["T_base_part"] = transform_json(layout.T_base_part);
   for (const auto& c : layout.clamps)
-    truth["clamps"].push_back({{"site", c.site}, {"T_base_clamp", matrix_json(c.T_base_clamp)}});
+    truth["clamps"].push_back({{"site", c.site}, {"T_base_clamp", transform_json(c.T_base_clamp)}});
   for (const auto& c : layout.clutter)
     truth["clutter"].push_back({{"type", c.type == ClutterItem::Type::kBox ? "box" : "cylinder"},
                                 {"size_m", {c.size_m.x(), c.size_m.y(), c.size_m.z()}},
@@ -136,7 +123,7 @@ int run_scan(const ScanCommand& cmd) {
                     {"samples", sweep.log.samples.size()},
                     {"returns", sweep.log.valid_samples()},
                     {"wall_s", sweep.wall_s}};
-  std::ofstream(cmd.truth) << truth.dump(1) << '\n';
+  write_json_file(cmd.truth, truth);
   say("wrote the ground truth to " + cmd.truth + " (" + std::to_string(counts["part"]) + " part points)");
   return 0;
 }

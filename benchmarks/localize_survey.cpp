@@ -23,6 +23,7 @@
 #include "core/cell_robot.hpp"
 #include "core/cloud_io.hpp"
 #include "core/error.hpp"
+#include "core/parallel_for.hpp"
 #include "perception/localizer.hpp"
 #include "perception/paper_localizer.hpp"
 #include "perception/pose_error.hpp"
@@ -277,143 +278,138 @@ int main(int argc, char** argv) {
     std::vector<double> calibration_error_mm(parts.size() * static_cast<size_t>(layouts), -1.0);
     std::vector<Trial> trials(parts.size() * static_cast<size_t>(layouts));
     std::vector<Iso3> scan_truth_of(trials.size(), Iso3::Identity());
-    std::atomic<size_t> next{0}, done{0};
+    std::atomic<size_t> done{0};
     std::mutex io;
-    auto worker = [&]() {
-      for (size_t i; (i = next++) < trials.size();) {
-        Trial& t = trials[i];
-        t.part = i / static_cast<size_t>(layouts);
-        t.seed = seed0 + i % static_cast<size_t>(layouts);
-        const PartData& d = parts[t.part];
-        Scan scan;
-        const std::string file = cache.empty()
-                                     ? ""
-                                     : cache + "/" + d.twin.part.name + "-" + std::to_string(t.seed) +
-                                           (noise_free ? "-exact" : "") + lidar_key + condition_key + ".scan";
-        if (file.empty() || !read_cache(file, scan)) {
-          const CellLayout layout = make_layout(d.twin.cell, d.twin.part, t.seed);
-          // The real part may differ from its CAD: the twin's part off in each extent, with tack welds, bent
-          // (the seams and the model stay the CAD's).
-          PartSpec twin_part = d.twin.part;
-          std::string deviated_mesh;
-          if (deviation.any()) {
-            deviated_mesh = (std::filesystem::temp_directory_path() /
-                             ("weldtwin_survey_" + d.twin.part.name + "_" + std::to_string(t.seed) + ".stl"))
-                                .string();
-            write_stl(deviate_part(d.twin.mesh, d.twin.seam_points, deviation, t.seed).mesh, deviated_mesh,
-                      "weldtwin survey: a part off its CAD");
-            twin_part.mesh_path = deviated_mesh;
-          }
-          // An uncalibrated LiDAR mount: the twin (its MuJoCo model and its sweep) holds the LiDAR off by a
-          // seeded draw, the scan is assembled with the nominal mount.
-          const Iso3 mount_delta = mount_error(t.seed, 1e-3 * mount_error_mm, deg2rad(mount_error_deg));
-          const TwinScene twin(d.twin, layout, mount_delta, &twin_part);
-          const RobotModel& real_robot = twin.real_robot;
-          const MujocoWorld& world = twin.world;
-          if (!deviated_mesh.empty()) std::filesystem::remove(deviated_mesh);
-          const SweepProgram& program = d.twin.program;
-          LidarSetting lidar = noise_free ? LidarSetting().noise_free() : LidarSetting();
-          lidar.seed = t.seed;
-          lidar.apply(lidar_overrides, "--lidar");
-          SweepOptions opt;
-          opt.threads = jobs > 1 ? 1 : 0;
-          const SweepResult r = simulate_sweep(world, real_robot, program, lidar, opt);
-          // Assembled with the URDF's mount, or with the one the calibration cell's sweep found.
-          RobotModel assembly = robot;
-          if (calibration) {
-            const MountCalibration cal = calibrate_in_twin(*calibration, real_robot, robot, t.seed + 1, opt);
-            assembly = robot.with_mount_offset("lidar", cal.delta);
-            calibration_error_mm[i] = 1e3 * (cal.delta.translation() - mount_delta.translation()).norm();
-          }
-          const AssembledCloud cloud = assemble_scan(r.log, assembly);
-          scan.points = cloud.points_base;
-          scan.viewpoints = cloud.viewpoints_base;
-          for (uint32_t s : cloud.sample_index) scan.labels.push_back(static_cast<uint8_t>(r.labels[s]));
-          scan.truth = layout.T_base_part;
-          if (!file.empty()) write_cache(file, scan);
+    parallel_for(trials.size(), std::max(1, jobs), [&](size_t i) {
+      Trial& t = trials[i];
+      t.part = i / static_cast<size_t>(layouts);
+      t.seed = seed0 + i % static_cast<size_t>(layouts);
+      const PartData& d = parts[t.part];
+      Scan scan;
+      const std::string file = cache.empty()
+                                   ? ""
+                                   : cache + "/" + d.twin.part.name + "-" + std::to_string(t.seed) +
+                                         (noise_free ? "-exact" : "") + lidar_key + condition_key + ".scan";
+      if (file.empty() || !read_cache(file, scan)) {
+        const CellLayout layout = make_layout(d.twin.cell, d.twin.part, t.seed);
+        // The real part may differ from its CAD: the twin's part off in each extent, with tack welds, bent
+        // (the seams and the model stay the CAD's).
+        PartSpec twin_part = d.twin.part;
+        std::string deviated_mesh;
+        if (deviation.any()) {
+          deviated_mesh = (std::filesystem::temp_directory_path() /
+                           ("weldtwin_survey_" + d.twin.part.name + "_" + std::to_string(t.seed) + ".stl"))
+                              .string();
+          write_stl(deviate_part(d.twin.mesh, d.twin.seam_points, deviation, t.seed).mesh, deviated_mesh,
+                    "weldtwin survey: a part off its CAD");
+          twin_part.mesh_path = deviated_mesh;
         }
-        t.points = scan.points.size();
-        scan_truth_of[i] = scan.truth;
-        if (no_viewpoints) scan.viewpoints.clear();
-        {
-          WeldJob job;
-          job.cell = &d.twin;
-          job.prepared = d.prepared.get();
-          job.T_base_part_twin = scan.truth;
-          job.truth_known = true;
-          WeldPipelineSetting find_only;
-          find_only.plan = false;
-          const WeldPipelineResult found = weld_pipeline(scan.points, scan.viewpoints, job, find_only);
-          t.ours = found.pose;
-          t.ours_err = *found.pose_error;
+        // An uncalibrated LiDAR mount: the twin (its MuJoCo model and its sweep) holds the LiDAR off by a
+        // seeded draw, the scan is assembled with the nominal mount.
+        const Iso3 mount_delta = mount_error(t.seed, 1e-3 * mount_error_mm, deg2rad(mount_error_deg));
+        const TwinScene twin(d.twin, layout, mount_delta, &twin_part);
+        const RobotModel& real_robot = twin.real_robot;
+        const MujocoWorld& world = twin.world;
+        if (!deviated_mesh.empty()) std::filesystem::remove(deviated_mesh);
+        const SweepProgram& program = d.twin.program;
+        LidarSetting lidar = noise_free ? LidarSetting().noise_free() : LidarSetting();
+        lidar.seed = t.seed;
+        lidar.apply(lidar_overrides, "--lidar");
+        SweepOptions opt;
+        opt.threads = jobs > 1 ? 1 : 0;
+        const SweepResult r = simulate_sweep(world, real_robot, program, lidar, opt);
+        // Assembled with the URDF's mount, or with the one the calibration cell's sweep found.
+        RobotModel assembly = robot;
+        if (calibration) {
+          const MountCalibration cal = calibrate_in_twin(*calibration, real_robot, robot, t.seed + 1, opt);
+          assembly = robot.with_mount_offset("lidar", cal.delta);
+          calibration_error_mm[i] = 1e3 * (cal.delta.translation() - mount_delta.translation()).norm();
         }
-        if (!no_paper) {
-          t.paper = localize_paper(scan.points, d.twin.mesh);
-          t.paper_err = pose_error(d.twin.part, t.paper.T_base_part, scan.truth, d.twin.symmetry);
-        }
-        if (!no_impostors &&
-            (impostor_layouts < 0 || t.seed < seed0 + static_cast<uint64_t>(impostor_layouts))) {
-          std::vector<Vec3> absent, absent_vp;
-          for (size_t k = 0; k < scan.points.size(); ++k)
-            if (scan.labels[k] != static_cast<uint8_t>(Label::kPart)) {
-              absent.push_back(scan.points[k]);
-              if (!scan.viewpoints.empty()) absent_vp.push_back(scan.viewpoints[k]);
-            }
-          t.impostors.emplace_back("absent", localize(absent, *d.prepared, localize_setting_for(d.twin.part),
-                                                      d.twin.seam_points, absent_vp));
-          for (const PartData& o : parts)
-            if (o.twin.part.name != d.twin.part.name)
-              t.impostors.emplace_back(o.twin.part.name,
-                                       localize(scan.points, *o.prepared, localize_setting_for(o.twin.part),
-                                                o.twin.seam_points, scan.viewpoints));
-        }
-        std::lock_guard<std::mutex> lock(io);
-        ++done;
-        if (calibration_error_mm[i] >= 0)
-          std::fprintf(stderr, "[calibrated mount %.2f mm off] ", calibration_error_mm[i]);
-        std::fprintf(stderr, "[%zu/%zu] %s seed %llu: ours %s %.3f mm %.3f deg %.2f s", done.load(),
-                     trials.size(), d.twin.part.name.c_str(), static_cast<unsigned long long>(t.seed),
-                     t.ours.found ? "found" : ("refused (" + t.ours.reason + ")").c_str(),
-                     1e3 * t.ours_err.seam_max_m, rad2deg(t.ours_err.rotation_rad), t.ours.seconds);
-        if (!no_paper)
-          std::fprintf(stderr, " | paper %.3f mm %.3f deg %.2f s", 1e3 * t.paper_err.seam_max_m,
-                       rad2deg(t.paper_err.rotation_rad), t.paper.seconds);
-        {
-          const Iso3 D = scan_truth_of[i].inverse() * t.ours.T_base_part;
-          split_error(t.ours.T_base_part, scan_truth_of[i], t.radial_m, t.tangential_m);
-          std::fprintf(stderr, " [base-frame error radial %.2f tangential %.2f mm]", 1e3 * t.radial_m,
-                       1e3 * t.tangential_m);
-          std::fprintf(stderr, " [part-frame error %.2f %.2f %.2f mm]", 1e3 * D.translation().x(),
-                       1e3 * D.translation().y(), 1e3 * D.translation().z());
-        }
-        std::fprintf(
-            stderr,
-            " [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f noise %.2f bound %.2f llr %.1f rllr %.1f wsig "
-            "%.2f bias %.2f beyond %.3f ext %.0f thru %.4f reached %.2f tilt %.3f deg z %.2f mm edge %.2f mm "
-            "%.2f deg]",
-            t.ours.coverage, t.ours.fitness, t.ours.free_space, t.ours.ambiguity, t.ours.wall_residual,
-            1e3 * t.ours.noise_m, 1e3 * t.ours.seam_error_bound_m, t.ours.margin_llr,
-            t.ours.residual_margin_llr, 1e3 * t.ours.wall_sigma_m, 1e3 * t.ours.wall_side_bias_m,
-            t.ours.beyond_share, 1e3 * t.ours.beyond_extent_m, t.ours.see_through_share,
-            t.ours.reached_coverage,
-            rad2deg(std::acos(std::min(1.0, t.ours.table_plane.head<3>().normalized().z()))),
-            -1e3 * t.ours.table_plane.w() / std::max(1e-9, t.ours.table_plane.head<3>().norm()),
-            1e3 * t.ours.edge_shift_m, rad2deg(t.ours.edge_turn_rad));
-        for (const auto& [what, p] : t.impostors)
-          std::fprintf(stderr,
-                       " | %s %s [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f beyond %.3f ext %.0f thru "
-                       "%.4f reached "
-                       "%.2f bound %.2f] (%s)",
-                       p.found ? "FALSE ACCEPT" : "refused", what.c_str(), p.coverage, p.fitness,
-                       p.free_space, p.ambiguity, p.wall_residual, p.beyond_share, 1e3 * p.beyond_extent_m,
-                       p.see_through_share, p.reached_coverage, 1e3 * p.seam_error_bound_m,
-                       p.reason.substr(0, 60).c_str());
-        std::fprintf(stderr, "\n");
+        const AssembledCloud cloud = assemble_scan(r.log, assembly);
+        scan.points = cloud.points_base;
+        scan.viewpoints = cloud.viewpoints_base;
+        for (uint32_t s : cloud.sample_index) scan.labels.push_back(static_cast<uint8_t>(r.labels[s]));
+        scan.truth = layout.T_base_part;
+        if (!file.empty()) write_cache(file, scan);
       }
-    };
-    std::vector<std::thread> pool;
-    for (int j = 0; j < std::max(1, jobs); ++j) pool.emplace_back(worker);
-    for (auto& th : pool) th.join();
+      t.points = scan.points.size();
+      scan_truth_of[i] = scan.truth;
+      if (no_viewpoints) scan.viewpoints.clear();
+      {
+        WeldJob job;
+        job.cell = &d.twin;
+        job.prepared = d.prepared.get();
+        job.T_base_part_twin = scan.truth;
+        job.truth_known = true;
+        WeldPipelineSetting find_only;
+        find_only.plan = false;
+        const WeldPipelineResult found = weld_pipeline(scan.points, scan.viewpoints, job, find_only);
+        t.ours = found.pose;
+        t.ours_err = *found.pose_error;
+      }
+      if (!no_paper) {
+        t.paper = localize_paper(scan.points, d.twin.mesh);
+        t.paper_err = pose_error(d.twin.part, t.paper.T_base_part, scan.truth, d.twin.symmetry);
+      }
+      if (!no_impostors &&
+          (impostor_layouts < 0 || t.seed < seed0 + static_cast<uint64_t>(impostor_layouts))) {
+        std::vector<Vec3> absent, absent_vp;
+        for (size_t k = 0; k < scan.points.size(); ++k)
+          if (scan.labels[k] != static_cast<uint8_t>(Label::kPart)) {
+            absent.push_back(scan.points[k]);
+            if (!scan.viewpoints.empty()) absent_vp.push_back(scan.viewpoints[k]);
+          }
+        t.impostors.emplace_back("absent", localize(absent, *d.prepared, localize_setting_for(d.twin.part),
+                                                    d.twin.seam_points, absent_vp));
+        for (const PartData& o : parts)
+          if (o.twin.part.name != d.twin.part.name)
+            t.impostors.emplace_back(o.twin.part.name,
+                                     localize(scan.points, *o.prepared, localize_setting_for(o.twin.part),
+                                              o.twin.seam_points, scan.viewpoints));
+      }
+      std::lock_guard<std::mutex> lock(io);
+      ++done;
+      if (calibration_error_mm[i] >= 0)
+        std::fprintf(stderr, "[calibrated mount %.2f mm off] ", calibration_error_mm[i]);
+      std::fprintf(stderr, "[%zu/%zu] %s seed %llu: ours %s %.3f mm %.3f deg %.2f s", done.load(),
+                   trials.size(), d.twin.part.name.c_str(), static_cast<unsigned long long>(t.seed),
+                   t.ours.found ? "found" : ("refused (" + t.ours.reason + ")").c_str(),
+                   1e3 * t.ours_err.seam_max_m, rad2deg(t.ours_err.rotation_rad), t.ours.seconds);
+      if (!no_paper)
+        std::fprintf(stderr, " | paper %.3f mm %.3f deg %.2f s", 1e3 * t.paper_err.seam_max_m,
+                     rad2deg(t.paper_err.rotation_rad), t.paper.seconds);
+      {
+        const Iso3 D = scan_truth_of[i].inverse() * t.ours.T_base_part;
+        split_error(t.ours.T_base_part, scan_truth_of[i], t.radial_m, t.tangential_m);
+        std::fprintf(stderr, " [base-frame error radial %.2f tangential %.2f mm]", 1e3 * t.radial_m,
+                     1e3 * t.tangential_m);
+        std::fprintf(stderr, " [part-frame error %.2f %.2f %.2f mm]", 1e3 * D.translation().x(),
+                     1e3 * D.translation().y(), 1e3 * D.translation().z());
+      }
+      std::fprintf(
+          stderr,
+          " [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f noise %.2f bound %.2f llr %.1f rllr %.1f wsig "
+          "%.2f bias %.2f beyond %.3f ext %.0f thru %.4f reached %.2f tilt %.3f deg z %.2f mm edge %.2f mm "
+          "%.2f deg]",
+          t.ours.coverage, t.ours.fitness, t.ours.free_space, t.ours.ambiguity, t.ours.wall_residual,
+          1e3 * t.ours.noise_m, 1e3 * t.ours.seam_error_bound_m, t.ours.margin_llr,
+          t.ours.residual_margin_llr, 1e3 * t.ours.wall_sigma_m, 1e3 * t.ours.wall_side_bias_m,
+          t.ours.beyond_share, 1e3 * t.ours.beyond_extent_m, t.ours.see_through_share,
+          t.ours.reached_coverage,
+          rad2deg(std::acos(std::min(1.0, t.ours.table_plane.head<3>().normalized().z()))),
+          -1e3 * t.ours.table_plane.w() / std::max(1e-9, t.ours.table_plane.head<3>().norm()),
+          1e3 * t.ours.edge_shift_m, rad2deg(t.ours.edge_turn_rad));
+      for (const auto& [what, p] : t.impostors)
+        std::fprintf(stderr,
+                     " | %s %s [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f beyond %.3f ext %.0f thru "
+                     "%.4f reached "
+                     "%.2f bound %.2f] (%s)",
+                     p.found ? "FALSE ACCEPT" : "refused", what.c_str(), p.coverage, p.fitness, p.free_space,
+                     p.ambiguity, p.wall_residual, p.beyond_share, 1e3 * p.beyond_extent_m,
+                     p.see_through_share, p.reached_coverage, 1e3 * p.seam_error_bound_m,
+                     p.reason.substr(0, 60).c_str());
+      std::fprintf(stderr, "\n");
+    });
 
     if (!csv.empty()) {
       std::ofstream out(csv);

@@ -11,13 +11,13 @@ namespace weldtwin {
 namespace {
 
 // TCP poses of 1024 seeded random configurations.
-std::vector<Iso3> random_poses(const AuboIk& ik) {
+std::vector<Iso3> random_poses(const RobotModel& robot) {
   std::mt19937_64 rng(3);
   std::vector<Iso3> poses;
   for (int k = 0; k < 1024; ++k) {
     JointVector q;
     for (int j = 0; j < 6; ++j) q[j] = std::uniform_real_distribution<double>(-3.0, 3.0)(rng);
-    poses.push_back(ik.fk(q));
+    poses.push_back(robot.forward_kinematics(q, robot.require_link("tcp")));
   }
   return poses;
 }
@@ -26,7 +26,7 @@ std::vector<Iso3> random_poses(const AuboIk& ik) {
 struct IkFixture {
   RobotModel robot = RobotModel::load(std::string(WELDTWIN_SOURCE_DIR) + "/scenes/robots/aubo_i5.urdf");
   AuboIk ik{robot, "tcp"};
-  std::vector<Iso3> poses = random_poses(ik);
+  std::vector<Iso3> poses = random_poses(robot);
 };
 
 const IkFixture& ik_fixture() {

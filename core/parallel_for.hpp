@@ -3,7 +3,9 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cstddef>
+#include <functional>
 #include <thread>
 #include <vector>
 
@@ -33,22 +35,30 @@ void parallel_for(size_t n, int threads, Fn fn) {
 }
 
 /// As parallel_for, each worker first making a state of its own (`make()`, on its thread: a collision
-/// checker with its own MuJoCo data, say) and calling fn(state, i) for every i it takes.
+/// checker with its own MuJoCo data, say) and calling fn(state, i) for every i it takes. With `progress`,
+/// the calling thread meanwhile reports the share of indices done every `period` (and 1 at the end).
 template <typename Make, typename Fn>
-void parallel_for_with(size_t n, int threads, Make make, Fn fn) {
-  std::atomic<size_t> next{0};
+void parallel_for_with(size_t n, int threads, Make make, Fn fn,
+                       const std::function<void(double done_fraction)>& progress = {},
+                       std::chrono::milliseconds period = std::chrono::milliseconds(200)) {
+  std::atomic<size_t> next{0}, done{0};
   const auto work = [&] {
     auto state = make();
-    for (size_t i; (i = next++) < n;) fn(state, i);
+    for (size_t i; (i = next++) < n; done.fetch_add(1, std::memory_order_relaxed)) fn(state, i);
   };
   const size_t workers = parallel_workers(n, threads);
-  if (workers <= 1) {
+  if (workers <= 1 && !progress) {
     if (n > 0) work();
     return;
   }
   std::vector<std::thread> pool;
   for (size_t w = 0; w < workers; ++w) pool.emplace_back(work);
+  while (progress && done.load() < n) {
+    progress(static_cast<double>(done.load()) / static_cast<double>(n));
+    std::this_thread::sleep_for(period);
+  }
   for (auto& t : pool) t.join();
+  if (progress) progress(1.0);
 }
 
 }  // namespace weldtwin

@@ -1,5 +1,6 @@
 #include "core/part_spec.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -51,6 +52,29 @@ Vec3 Seam::wall_normal_at(double s) const {
   if (!wall_normal_radial) return wall_normal;
   Vec3 r = point_at(s) - center;
   return (r - r.dot(axis) * axis).normalized();
+}
+
+double Seam::distance_to(const Vec3& q) const {
+  if (kind == Kind::kLine) {
+    const Vec3 ab = end - start;
+    const double len2 = ab.squaredNorm();
+    const double u = len2 > 0 ? std::clamp((q - start).dot(ab) / len2, 0.0, 1.0) : 0.0;
+    return (start + u * ab - q).norm();
+  }
+  // An arc: the nearest point is on the circle in the direction of q (about the axis) when that direction
+  // lies within the sweep, else an end.
+  const Vec3 w = axis.normalized(), r0 = start - center;
+  const Vec3 v = q - center;
+  const double h = v.dot(w);
+  const Vec3 radial = v - h * w;
+  const double ends = std::min((q - start).norm(), (q - point_at(1.0)).norm());
+  if (radial.norm() < 1e-12) return std::min(ends, std::hypot(h, radius_m));  // on the axis: all alike
+  const double sign = sweep_rad >= 0 ? 1.0 : -1.0;
+  double angle =
+      sign * std::atan2(w.dot(r0.cross(radial)), r0.dot(radial));  // from the start, in sweep sense
+  if (angle < 0) angle += 2 * kPi;
+  if (angle <= std::abs(sweep_rad)) return std::min(ends, std::hypot(h, radial.norm() - radius_m));
+  return ends;
 }
 
 Seam Seam::reversed() const {

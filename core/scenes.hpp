@@ -14,4 +14,9 @@ std::string scenes_dir();
 /// A file of the scenes: scenes_dir() + "/" + relative (e.g. "cells/default.yaml").
 std::string scene_file(const std::string& relative);
 
+/// The cell file given, or the default cell of the scenes when none was ("").
+inline std::string cell_or_default(const std::string& cell) {
+  return cell.empty() ? scene_file("cells/default.yaml") : cell;
+}
+
 }  // namespace weldtwin

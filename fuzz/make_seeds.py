@@ -2,7 +2,7 @@
 """Seed corpora for the fuzz harnesses, small valid files of each kind (libFuzzer mutates from them):
     fuzz/make_seeds.py OUT_DIR [--seed-bags BIN] [--real DIR]
 Harnesses that read their first byte as a format or a chunk size get it prefixed (cloud: even PCD, odd PLY;
-mesh: 0 STL, 1 PLY, 2 OBJ; pose_plan: even pose, odd plan; ros_bag, by the byte mod 3: ROS 1, ROS 2 sqlite3,
+mesh: 0 STL, 1 PLY, 2 OBJ; pose_plan, by the byte mod 3: pose, plan, LiDAR mount; ros_bag, by the byte mod 3: ROS 1, ROS 2 sqlite3,
 ROS 2 MCAP; rplidar: even SCAN, odd EXPRESS, and the chunk size; aubo_messages: odd the state stream, even
 the command replies, and the chunk size). The shipped
 part meshes, part and cell specs are added as they are; --seed-bags runs fuzz/seed_bags (bags from weldtwin's
@@ -80,6 +80,8 @@ for k in range(40):
     samples.append({"t": 0.005 * k, "q": [0.01 * k, 0, 1.57, 0, 1.57, 0], "tcp": [0.4, 0.05, 0.03, 1, 0, 0, 0],
                     "seam": seam, "arc": seam >= 0, "phase": "weld" if seam >= 0 else "approach"})
 put("pose_plan", "plan.json", b"\1" + json.dumps({"part": "tube_on_plate", "ok": True, "samples": samples}).encode())
+mount = {"lidar_link": "lidar", "correction": {"xyz_m": [0.002, -0.001, 0.0005], "rpy_deg": [0.3, -0.2, 0.1]}}
+put("pose_plan", "mount.json", b"\2" + json.dumps(mount).encode())
 
 if args.seed_bags:
     subprocess.run([args.seed_bags, os.path.join(out, "ros_bag")], check=True)

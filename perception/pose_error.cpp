@@ -11,36 +11,11 @@
 namespace weldtwin {
 namespace {
 
-// Distance from p to the segment ab.
-double segment_distance(const Vec3& p, const Vec3& a, const Vec3& b) {
-  const Vec3 ab = b - a;
-  const double len2 = ab.squaredNorm();
-  const double t = len2 > 0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
-  return (p - (a + t * ab)).norm();
-}
-
-// Each seam as a polyline fine enough that chords stay within 1e-6 m of the arcs (0.25 mm steps).
-std::vector<std::vector<Vec3>> polylines(const PartSpec& part, const Iso3& T) {
-  std::vector<std::vector<Vec3>> out;
-  for (const Seam& seam : part.seams) {
-    std::vector<Vec3> line;
-    const int n = std::max(1, static_cast<int>(std::ceil(seam.length_m() / 2.5e-4)));
-    for (int k = 0; k <= n; ++k) line.push_back(T * seam.point_at(static_cast<double>(k) / n));
-    out.push_back(std::move(line));
-  }
-  return out;
-}
-
-double distance_to(const std::vector<std::vector<Vec3>>& lines, const Vec3& p) {
+// Distance from p (base frame) to the nearest seam of the part whose frame is T_part_base from the base's.
+double distance_to(const PartSpec& part, const Iso3& T_part_base, const Vec3& p) {
+  const Vec3 q = T_part_base * p;
   double best = std::numeric_limits<double>::infinity();
-  for (const auto& line : lines)
-    for (size_t k = 0; k + 1 < line.size(); ++k) {
-      // Cheap reject: a segment whose nearer end is farther than the best plus its length cannot win.
-      const double d0 = (p - line[k]).squaredNorm();
-      const double len = (line[k + 1] - line[k]).norm();
-      if (d0 > (best + len) * (best + len)) continue;
-      best = std::min(best, segment_distance(p, line[k], line[k + 1]));
-    }
+  for (const Seam& seam : part.seams) best = std::min(best, seam.distance_to(q));
   return best;
 }
 
@@ -86,16 +61,16 @@ int z_symmetry_order(const Mesh& mesh, double tolerance_m) {
 
 PoseError pose_error(const PartSpec& part, const Iso3& estimate, const Iso3& truth, int symmetry_order) {
   PoseError e;
-  const auto true_lines = polylines(part, truth), est_lines = polylines(part, estimate);
+  const Iso3 truth_inverse = truth.inverse(), estimate_inverse = estimate.inverse();
   double sum = 0.0;
   const std::vector<Vec3> est = stations(part, estimate), tru = stations(part, truth);
   for (const Vec3& p : est) {
-    const double d = distance_to(true_lines, p);
+    const double d = distance_to(part, truth_inverse, p);
     e.seam_max_m = std::max(e.seam_max_m, d);
     sum += d;
   }
   e.seam_mean_m = est.empty() ? 0.0 : sum / static_cast<double>(est.size());
-  for (const Vec3& p : tru) e.seam_max_m = std::max(e.seam_max_m, distance_to(est_lines, p));
+  for (const Vec3& p : tru) e.seam_max_m = std::max(e.seam_max_m, distance_to(part, estimate_inverse, p));
   // Seams that are all full circles about one vertical axis weld the same for any turn about it: then only
   // the tilt of that axis counts.
   bool circles = !part.seams.empty();

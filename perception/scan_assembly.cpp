@@ -5,6 +5,8 @@
 #include <cstdint>
 #include <stdexcept>
 
+#include "core/knot_poses.hpp"
+
 namespace weldtwin {
 namespace {
 
@@ -51,29 +53,14 @@ AssembledCloud assemble_scan(const ScanLog& log, const RobotModel& robot, const 
     return true;
   };
   // The sensor's pose exactly at every knot_samples-th sample, interpolated linearly in between when the two
-  // knots are close in time (over a few milliseconds the arm's motion is a straight line to far under a
-  // micrometre); exactly at the sample otherwise.
-  const size_t step = static_cast<size_t>(std::max(1, setting.knot_samples));
-  size_t knot_a = SIZE_MAX;
-  bool knots = false;
-  Iso3 Ta = Iso3::Identity(), Tb = Iso3::Identity();
-  double ta = 0.0, tb = 0.0;
+  // knots are close in time; exactly at the sample otherwise.
+  KnotPoses poses(log.samples.size(), static_cast<size_t>(std::max(1, setting.knot_samples)),
+                  setting.max_knot_gap_s, exact, [&](size_t i) { return log.samples[i].t_s; });
   for (size_t i = 0; i < log.samples.size(); ++i) {
     const LidarSample& s = log.samples[i];
     if (!usable(s, setting)) continue;
-    if (step > 1 && i / step * step != knot_a) {
-      const size_t a = i / step * step, b = a + step;  // past the last knot: every sample exactly
-      const bool reuse = knots && a == knot_a + step;  // the last segment's end is this one's start
-      if (reuse) Ta = Tb;
-      knot_a = a;
-      ta = log.samples[a].t_s;
-      tb = b < log.samples.size() ? log.samples[b].t_s : ta;
-      knots = tb > ta && tb - ta <= setting.max_knot_gap_s && (reuse || exact(a, Ta)) && exact(b, Tb);
-    }
-    Iso3 T = Ta;
-    if (knots && s.t_s >= ta && s.t_s <= tb) {
-      T = lerp_pose(Ta, Tb, (s.t_s - ta) / (tb - ta));
-    } else if (!exact(i, T)) {
+    Iso3 T;
+    if (!poses.pose(i, T)) {
       ++cloud.dropped_outside_joint_log;
       continue;
     }

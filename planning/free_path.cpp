@@ -67,4 +67,8 @@ std::vector<JointVector> free_joint_path(const JointVector& a, const JointVector
   return path;
 }
 
+bool joint_space_search_available() {
+  return true;
+}
+
 }  // namespace weldtwin

@@ -1,6 +1,6 @@
 // A collision-free joint-space path between two free configurations, by OMPL's RRT-Connect (seeded afresh at
 // every call, so the same question gets the same answer, whatever was asked before) and OMPL's path
-// simplification.
+// simplification. A build without OMPL (WELDTWIN_WITH_OMPL=OFF) finds no such path and says so.
 #pragma once
 
 #include <functional>
@@ -18,5 +18,8 @@ std::vector<JointVector> free_joint_path(const JointVector& a, const JointVector
                                          const JointVector& upper,
                                          const std::function<bool(const JointVector&)>& is_free,
                                          double resolution_rad = 0.02, double max_seconds = 5.0);
+
+/// Whether this build searches joint space at all (false: built without OMPL, free_joint_path finds nothing).
+bool joint_space_search_available();
 
 }  // namespace weldtwin

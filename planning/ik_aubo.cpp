@@ -100,18 +100,6 @@ AuboIk::AuboIk(const RobotModel& robot, const std::string& tip) {
   upper_ = robot.upper();
 }
 
-Iso3 AuboIk::fk(const JointVector& q) const {
-  Iso3 T = Iso3::Identity();
-  for (size_t i = 0; i < 6; ++i) {
-    const Mat3 R = rot(w_[i], q[static_cast<int>(i)]);
-    Iso3 E = Iso3::Identity();
-    E.linear() = R;
-    E.translation() = r_[i] - R * r_[i];
-    T = T * E;
-  }
-  return T * M_;
-}
-
 std::array<IkSolution, 8> AuboIk::solve(const Iso3& T_base_tip, double q6_reference) const {
   std::array<IkSolution, 8> out;
   solve_into(T_base_tip, q6_reference, -1, out);

@@ -38,9 +38,6 @@ class AuboIk {
   /// The valid solution within limits nearest to `q_near` (max-norm over joints); false if there is none.
   bool nearest(const Iso3& T_base_tip, const JointVector& q_near, JointVector& q) const;
 
-  /// Forward kinematics of the tip by the same product of exponentials.
-  Iso3 fk(const JointVector& q) const;
-
  private:
   void solve_into(const Iso3& T_base_tip, double q6_reference, int only,
                   std::array<IkSolution, 8>& out) const;

@@ -207,7 +207,7 @@ Builder::Ran Builder::transit(const JointVector& to, const std::string& what) {
   std::string hit = collision_since(start.samples);
   if (hit.empty()) return Ran::kOk;
   rewind(start);
-  const Iso3 here = ik_.fk(q_), there = ik_.fk(to);
+  const Iso3 here = tcp_pose(q_), there = tcp_pose(to);
   const double top = std::max(here.translation().z(), there.translation().z()) + set_.transit_lift_m;
   auto up = [&](const Iso3& T) {
     Iso3 U = T;
@@ -232,8 +232,11 @@ Builder::Ran Builder::transit(const JointVector& to, const std::string& what) {
     if ((q_ - to).cwiseAbs().maxCoeff() < 1e-9) return Ran::kOk;
     rewind(start);
   }
-  problem(what + ": collides with " + hit + " (straight, lifted, by way of home, or any way found in " +
-          "joint space)");
+  problem(what + ": collides with " + hit +
+          (joint_space_search_available()
+               ? " (straight, lifted, by way of home, or any way found in joint space)"
+               : " (straight, lifted or by way of home; this weldtwin was built without OMPL "
+                 "(WELDTWIN_WITH_OMPL=OFF), which searches joint space for a way around)"));
   return Ran::kBlocked;
 }
 
@@ -316,7 +319,7 @@ void Builder::joint_move(const JointVector& to) {
     law.at(k * dt_, s, sd, sdd);
     q_ = from + (law.length > 0 ? s / law.length : 1.0) * delta;
     t_ += dt_;
-    plan_.samples.push_back({t_, q_, ik_.fk(q_), -1, false, Phase::kTransit});
+    plan_.samples.push_back({t_, q_, tcp_pose(q_), -1, false, Phase::kTransit});
   }
 }
 

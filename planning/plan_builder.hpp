@@ -58,12 +58,15 @@ class Builder {
   Builder(const RobotModel& robot, const PlanSetting& setting, WeldPlan& plan)
       : robot_(robot),
         ik_(robot, "tcp"),
+        tcp_link_(robot.require_link("tcp")),
         set_(setting),
         plan_(plan),
         q_(setting.start.value_or(setting.home)),
         dt_(1.0 / setting.sample_hz) {}
 
   const AuboIk& ik() const { return ik_; }
+  /// T_base_tcp at q (the robot model's forward kinematics).
+  Iso3 tcp_pose(const JointVector& q) const { return robot_.forward_kinematics(q, tcp_link_); }
   void set_branch(int branch) { branch_ = branch; }
   const JointVector& q() const { return q_; }
 
@@ -159,6 +162,7 @@ class Builder {
  private:
   const RobotModel& robot_;
   AuboIk ik_;
+  int tcp_link_;
   const PlanSetting& set_;
   WeldPlan& plan_;
   JointVector q_;

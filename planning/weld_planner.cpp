@@ -43,22 +43,6 @@ const char* plan_failure_name(PlanFailure failure) {
   return "?";
 }
 
-const char* phase_name(Phase phase) {
-  switch (phase) {
-    case Phase::kTransit:
-      return "transit";
-    case Phase::kApproach:
-      return "approach";
-    case Phase::kWeld:
-      return "weld";
-    case Phase::kCorner:
-      return "corner";
-    case Phase::kDeparture:
-      return "departure";
-  }
-  return "?";
-}
-
 WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotModel& robot,
                     const PlanSetting& setting) {
   WeldPlan plan;
@@ -68,7 +52,7 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
   Builder b(robot, setting, plan);
   plan.samples.reserve(32768);
   const JointVector first = setting.start.value_or(setting.home);
-  plan.samples.push_back({0.0, first, b.ik().fk(first), -1, false, Phase::kTransit});
+  plan.samples.push_back({0.0, first, b.tcp_pose(first), -1, false, Phase::kTransit});
   if (setting.collision) {
     if (const std::string hit = setting.collision(first, false); !hit.empty()) {
       plan.problems.push_back("the arm where the plan starts collides (" + hit +

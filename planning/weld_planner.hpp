@@ -59,7 +59,6 @@ struct PlanSetting {
 };
 
 enum class Phase { kTransit, kApproach, kWeld, kCorner, kDeparture };
-const char* phase_name(Phase phase);
 
 struct PlanSample {
   double t_s = 0.0;

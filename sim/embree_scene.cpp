@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "perception/embree_common.hpp"
 #include "sim/mujoco_world.hpp"
 #include "sim/ray_geom.hpp"
 
@@ -214,41 +215,13 @@ double bounding_radius(const EmbreeScene::Shape& s) {
   }
 }
 
-// The shape's triangles as an Embree geometry (float vertices; hits are refined in double afterwards).
-RTCGeometry triangle_geometry(RTCDevice device, const EmbreeScene::Shape& s) {
-  RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                        3 * sizeof(float), s.vertices.size()));
-  for (size_t k = 0; k < s.vertices.size(); ++k)
-    for (int c = 0; c < 3; ++c) v[3 * k + static_cast<size_t>(c)] = static_cast<float>(s.vertices[k][c]);
-  auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                             3 * sizeof(unsigned), s.triangles.size()));
-  for (size_t k = 0; k < s.triangles.size(); ++k)
-    for (int c = 0; c < 3; ++c)
-      idx[3 * k + static_cast<size_t>(c)] = static_cast<unsigned>(s.triangles[k][c]);
-  return geom;
-}
-
 // One ray through an Embree scene; the context carries it in double for user geometry.
 RTCRayHit embree_cast(RTCScene scene, const Vec3& origin, const Vec3& dir, double t_min, double t_max) {
   Context ctx;
   rtcInitIntersectContext(&ctx.embree);
   ctx.origin = origin;
   ctx.dir = dir;
-  RTCRayHit rh;
-  rh.ray.org_x = static_cast<float>(origin.x());
-  rh.ray.org_y = static_cast<float>(origin.y());
-  rh.ray.org_z = static_cast<float>(origin.z());
-  rh.ray.dir_x = static_cast<float>(dir.x());
-  rh.ray.dir_y = static_cast<float>(dir.y());
-  rh.ray.dir_z = static_cast<float>(dir.z());
-  rh.ray.tnear = static_cast<float>(t_min);
-  rh.ray.tfar = static_cast<float>(t_max);
-  rh.ray.mask = 0xFFFFFFFF;
-  rh.ray.flags = 0;
-  rh.ray.time = 0.0f;
-  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  RTCRayHit rh = embree::ray(origin, dir, t_min, t_max);
   rtcIntersect1(scene, &ctx.embree, &rh);
   return rh;
 }
@@ -266,8 +239,7 @@ double refine_hit(const EmbreeScene::Shape& s, const RTCRayHit& rh, const Vec3& 
 }  // namespace
 
 EmbreeScene::EmbreeScene(const mjModel* m, const mjData* d, const std::function<bool(int geom)>& include) {
-  device_ = rtcNewDevice("threads=1,verbose=0");
-  if (!device_) throw std::runtime_error("Embree: cannot create a device");
+  device_ = embree::new_device();
   static_ = rtcNewScene(device_);
 
   std::vector<int> moving_of_body(static_cast<size_t>(m->nbody), -1);
@@ -288,7 +260,7 @@ EmbreeScene::EmbreeScene(const mjModel* m, const mjData* d, const std::function<
     if (!is_static) {
       if (!s->triangles.empty()) {
         s->local = rtcNewScene(device_);
-        RTCGeometry geom = triangle_geometry(device_, *s);
+        RTCGeometry geom = embree::triangle_geometry(device_, s->vertices, s->triangles);
         rtcCommitGeometry(geom);
         rtcAttachGeometry(s->local, geom);
         rtcReleaseGeometry(geom);
@@ -305,7 +277,7 @@ EmbreeScene::EmbreeScene(const mjModel* m, const mjData* d, const std::function<
     }
     RTCGeometry geom;
     if (!s->triangles.empty()) {
-      geom = triangle_geometry(device_, *s);
+      geom = embree::triangle_geometry(device_, s->vertices, s->triangles);
       triangles_ += s->triangles.size();
     } else {
       geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);

@@ -1,13 +1,14 @@
 #include "sim/renderer.hpp"
 
-#include <GL/osmesa.h>
-#include <dlfcn.h>
 #include <png.h>
 
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <optional>
 #include <stdexcept>
+
+#include "sim/gl_context.hpp"
 
 namespace weldtwin {
 
@@ -46,42 +47,10 @@ double Image::spread() const {
   return std::sqrt(std::max(0.0, sum2 / n - mean * mean));
 }
 
-namespace {
-
-// OSMesa, opened when the first picture is made: linked into the executable, it (and the LLVM it brings)
-// costs every weldtwin process ~40 ms of start-up, though most never draw. Opened RTLD_GLOBAL, so that
-// MuJoCo's renderer finds OSMesa's GL entry points the way it does when OSMesa is linked.
-struct OsMesa {
-  decltype(&OSMesaCreateContextExt) create = nullptr;
-  decltype(&OSMesaMakeCurrent) make_current = nullptr;
-  decltype(&OSMesaDestroyContext) destroy = nullptr;
-};
-
-const OsMesa& osmesa() {
-  static const OsMesa api = [] {
-    OsMesa a;
-    void* lib = dlopen("libOSMesa.so.8", RTLD_NOW | RTLD_GLOBAL);
-    if (!lib) lib = dlopen("libOSMesa.so", RTLD_NOW | RTLD_GLOBAL);
-    if (!lib) return a;
-    a.create = reinterpret_cast<decltype(a.create)>(dlsym(lib, "OSMesaCreateContextExt"));
-    a.make_current = reinterpret_cast<decltype(a.make_current)>(dlsym(lib, "OSMesaMakeCurrent"));
-    a.destroy = reinterpret_cast<decltype(a.destroy)>(dlsym(lib, "OSMesaDestroyContext"));
-    if (!a.create || !a.make_current || !a.destroy) a = OsMesa();
-    return a;
-  }();
-  if (!api.create)
-    throw std::runtime_error(
-        "offscreen pictures need OSMesa (libOSMesa.so.8, Debian's libosmesa6): not found");
-  return api;
-}
-
-}  // namespace
-
 struct OffscreenRenderer::Impl {
   const mjModel* model = nullptr;
   int width = 0, height = 0;
-  OSMesaContext context = nullptr;
-  std::vector<unsigned char> buffer;
+  std::optional<OffscreenGlContext> context;
   mjvScene scene;
   mjrContext gl;
   mjvOption option;
@@ -95,14 +64,7 @@ OffscreenRenderer::OffscreenRenderer(const mjModel* model, int width, int height
   r.model = model;
   r.width = width;
   r.height = height;
-  r.context = osmesa().create(OSMESA_RGBA, 24, 8, 0, nullptr);
-  if (!r.context) throw std::runtime_error("OSMesa: cannot create a context");
-  const int w = model->vis.global.offwidth, h = model->vis.global.offheight;
-  r.buffer.resize(static_cast<size_t>(w) * static_cast<size_t>(h) * 4);
-  if (!osmesa().make_current(r.context, r.buffer.data(), GL_UNSIGNED_BYTE, w, h)) {
-    osmesa().destroy(r.context);
-    throw std::runtime_error("OSMesa: cannot make the context current");
-  }
+  r.context.emplace(model->vis.global.offwidth, model->vis.global.offheight);
   mjv_defaultScene(&r.scene);
   mjv_makeScene(model, &r.scene, model->ngeom + 40000);
   mjr_defaultContext(&r.gl);
@@ -114,13 +76,12 @@ OffscreenRenderer::OffscreenRenderer(const mjModel* model, int width, int height
 OffscreenRenderer::~OffscreenRenderer() {
   mjr_freeContext(&impl_->gl);
   mjv_freeScene(&impl_->scene);
-  osmesa().destroy(impl_->context);
+  impl_->context.reset();
 }
 
 Image OffscreenRenderer::render(mjData* data, const View& view, const Overlay& overlay) {
   Impl& r = *impl_;
-  osmesa().make_current(r.context, r.buffer.data(), GL_UNSIGNED_BYTE, r.model->vis.global.offwidth,
-                        r.model->vis.global.offheight);
+  r.context->make_current();
   mjvCamera cam;
   mjv_defaultCamera(&cam);
   if (!view.camera.empty()) {

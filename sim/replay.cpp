@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "core/parallel_for.hpp"
 #include "sim/collision_check.hpp"
 
 namespace weldtwin {
@@ -71,28 +72,7 @@ std::string fmt(const char* f, double a, double b = 0.0) {
 }  // namespace
 
 double distance_to_seam(const PartSpec& part, int seam, const Iso3& T_base_part, const Vec3& p) {
-  const Seam& s = part.seams.at(static_cast<size_t>(seam));
-  const Vec3 q = T_base_part.inverse() * p;
-  if (s.kind == Seam::Kind::kLine) {
-    const Vec3 ab = s.end - s.start;
-    const double len2 = ab.squaredNorm();
-    const double u = len2 > 0 ? std::clamp((q - s.start).dot(ab) / len2, 0.0, 1.0) : 0.0;
-    return (s.start + u * ab - q).norm();
-  }
-  // An arc: the nearest point is on the circle in the direction of q (about the axis) when that direction
-  // lies within the sweep, else an end.
-  const Vec3 axis = s.axis.normalized(), r0 = s.start - s.center;
-  const Vec3 v = q - s.center;
-  const double h = v.dot(axis);
-  const Vec3 radial = v - h * axis;
-  const double ends = std::min((q - s.start).norm(), (q - s.point_at(1.0)).norm());
-  if (radial.norm() < 1e-12) return std::min(ends, std::hypot(h, s.radius_m));  // on the axis: all alike
-  const double sign = s.sweep_rad >= 0 ? 1.0 : -1.0;
-  double angle =
-      sign * std::atan2(axis.dot(r0.cross(radial)), r0.dot(radial));  // from the start, in sweep sense
-  if (angle < 0) angle += 2 * kPi;
-  if (angle <= std::abs(s.sweep_rad)) return std::min(ends, std::hypot(h, radial.norm() - s.radius_m));
-  return ends;
+  return part.seams.at(static_cast<size_t>(seam)).distance_to(T_base_part.inverse() * p);
 }
 
 ReplayResult replay_plan(const MujocoWorld& world, const RobotModel& robot, const WeldPlan& plan,
@@ -211,26 +191,29 @@ ReplayResult replay_plan(const MujocoWorld& world, const RobotModel& robot, cons
   // The TCP, and the clearance of every robot geom to the part's exact mesh, at every plan sample, on all
   // cores.
   const PartClearance clearance(world, part_mesh, T_base_part_true, setting.clearance_range_m);
-  std::atomic<size_t> next_sample{0};
-  auto clearance_worker = [&] {
-    DataPtr dk(mj_makeData(m));
+  struct Worker {
+    DataPtr data;
     PartClearance::Hint hint;  // runs of consecutive samples: the nearest point moves little between them
-    constexpr size_t kRun = 64;
-    for (size_t first; (first = next_sample.fetch_add(kRun)) < out.samples.size();)
-      for (size_t k = first; k < std::min(first + kRun, out.samples.size()); ++k) {
-        ReplaySample& r = out.samples[k];
-        world.set_joints(dk.get(), r.q);
-        r.tcp = Vec3(dk->xpos[3 * tcp_body], dk->xpos[3 * tcp_body + 1], dk->xpos[3 * tcp_body + 2]);
-        r.clearance_m = clearance.clearance(dk.get(), &r.clearance_geom, &hint);
-      }
   };
-  const unsigned threads = setting.threads > 0
-                               ? static_cast<unsigned>(setting.threads)
-                               : std::max(1u, std::min(4u, std::thread::hardware_concurrency()));
-  std::vector<std::thread> pool;
-  for (unsigned i = 1; i < threads; ++i) pool.emplace_back(clearance_worker);
-  clearance_worker();
-  for (auto& th : pool) th.join();
+  constexpr size_t kRun = 64;
+  const size_t samples = out.samples.size();
+  const int threads = setting.threads > 0
+                          ? setting.threads
+                          : static_cast<int>(std::min(4u, std::thread::hardware_concurrency()));
+  parallel_for_with(
+      (samples + kRun - 1) / kRun, threads,
+      [&] {
+        return Worker{DataPtr(mj_makeData(m)), {}};
+      },
+      [&](Worker& worker, size_t run) {
+        for (size_t k = run * kRun; k < std::min((run + 1) * kRun, samples); ++k) {
+          ReplaySample& r = out.samples[k];
+          world.set_joints(worker.data.get(), r.q);
+          const mjData* dk = worker.data.get();
+          r.tcp = Vec3(dk->xpos[3 * tcp_body], dk->xpos[3 * tcp_body + 1], dk->xpos[3 * tcp_body + 2]);
+          r.clearance_m = clearance.clearance(worker.data.get(), &r.clearance_geom, &worker.hint);
+        }
+      });
 
   // Figures.
   out.seams.resize(part.seams.size());

@@ -10,6 +10,8 @@
 #include <string>
 #include <thread>
 
+#include "core/knot_poses.hpp"
+#include "core/parallel_for.hpp"
 #include "sim/body_chain.hpp"
 #include "sim/embree_scene.hpp"
 
@@ -30,124 +32,132 @@ struct TurnWork {
   FixedRay* record;       ///< cast_fixed_rays: where the rays and their hits go
 };
 
-// Casts turns taken from `next` until none is left, with this thread's own mjData and Embree view.
-void run_turns(const TurnWork& w, std::atomic<size_t>& next, std::atomic<size_t>& done) {
+// One worker's state: its own chain caches and Embree view, and the slice of the arm's geometry it last
+// posed (kept from one turn to the next it casts).
+struct TurnCaster {
+  explicit TurnCaster(const TurnWork& work)
+      : w(work),
+        body_caches(w.body_chains.size()),
+        body_poses(w.body_chains.size()),
+        view(w.scene.make_view()),
+        step(2.0 * kPi / w.samples_per_turn),
+        exact(static_cast<size_t>(w.samples_per_turn)),
+        beam(static_cast<size_t>(w.samples_per_turn)) {
+    // Beam directions in the scan plane, one per sample slot of a turn.
+    for (int k = 0; k < w.samples_per_turn; ++k) {
+      const double a = static_cast<double>(static_cast<float>(k * step));
+      beam[static_cast<size_t>(k)] = Vec3(std::cos(a), std::sin(a), 0.0);
+    }
+  }
+
+  void cast(size_t turn);
+
+  const TurnWork& w;
   BodyChain::Cache chain_cache;
-  std::vector<BodyChain::Cache> body_caches(w.body_chains.size());
-  std::vector<Iso3> body_poses(w.body_chains.size());
-  EmbreeScene::View view = w.scene.make_view();
+  std::vector<BodyChain::Cache> body_caches;
+  std::vector<Iso3> body_poses;
+  EmbreeScene::View view;
   long current_slice = -1;
   Iso3 slice_end = Iso3::Identity();  // the sensor at the end of the current slice
-  const double step = 2.0 * kPi / w.samples_per_turn;
-  std::vector<double> exact(static_cast<size_t>(w.samples_per_turn));
-  // Beam directions in the scan plane, one per sample slot of a turn.
-  std::vector<Vec3> beam(static_cast<size_t>(w.samples_per_turn));
-  for (int k = 0; k < w.samples_per_turn; ++k) {
-    const double a = static_cast<double>(static_cast<float>(k * step));
-    beam[static_cast<size_t>(k)] = Vec3(std::cos(a), std::sin(a), 0.0);
-  }
-  const size_t turns = w.out.log.turns.size();
+  double step;
+  std::vector<double> exact;
+  std::vector<Vec3> beam;
+};
 
-  for (size_t turn = next.fetch_add(1); turn < turns; turn = next.fetch_add(1)) {
-    const LidarTurn& lt = w.out.log.turns[turn];
-    LidarErrorModel errors(w.lidar, turn);
-    // The sensor is posed exactly at every `sensor_knot_samples`-th sample and interpolated linearly in
-    // between: over a few milliseconds the arm's motion is a straight line to far under a micrometre.
-    const size_t knot_step = static_cast<size_t>(std::max(1, w.options.sensor_knot_samples));
-    auto exact_pose = [&](size_t sample) {
-      return w.chain.pose(w.program.q(static_cast<double>(sample) / w.lidar.sample_rate_hz), chain_cache);
-    };
-    size_t knot_a = SIZE_MAX;
-    Iso3 Ta = Iso3::Identity(), Tb = Iso3::Identity();
-    for (uint32_t k = 0; k < lt.count; ++k) {
+// Casts one turn's rays and fills its samples.
+void TurnCaster::cast(size_t turn) {
+  const LidarTurn& lt = w.out.log.turns[turn];
+  LidarErrorModel errors(w.lidar, turn);
+  // The sensor is posed exactly at every `sensor_knot_samples`-th sample and interpolated linearly in
+  // between: over a few milliseconds the arm's motion is a straight line to far under a micrometre.
+  const size_t knot_step = static_cast<size_t>(std::max(1, w.options.sensor_knot_samples));
+  auto exact_pose = [&](size_t sample) {
+    return w.chain.pose(w.program.q(static_cast<double>(sample) / w.lidar.sample_rate_hz), chain_cache);
+  };
+  // Sample times are i / rate: the index is the time in sample periods, and every knot is near enough.
+  KnotPoses poses(
+      w.out.log.samples.size(), knot_step, std::numeric_limits<double>::infinity(),
+      [&](size_t sample, Iso3& T) {
+        T = exact_pose(sample);
+        return true;
+      },
+      [](size_t sample) { return static_cast<double>(sample); });
+  for (uint32_t k = 0; k < lt.count; ++k) {
+    const size_t i = lt.first + k;
+    LidarSample& s = w.out.log.samples[i];
+    // Sample times are integer multiples of the sample period, as the joint log's are.
+    s.t_s = static_cast<double>(i) / w.lidar.sample_rate_hz;  // the double nearest i / rate
+    s.angle_rad = static_cast<float>(k * step);
+    // The first hit: its distance (< 0: none), the cosine of its incidence, and the geom.
+    double distance = -1.0, cos_incidence = 1.0;
+    int geom = -1;
+    if (w.fixed) {
+      // The shared geometry's hit is known: the layout's geoms are cast against up to it.
+      const FixedRay& f = w.fixed[i];
+      const RayHit hit =
+          view.cast(f.origin, f.dir, 1e-6, f.distance_m >= 0.0 ? f.distance_m : w.lidar.max_range_m * 1.05);
+      if (hit.hit() && (f.distance_m < 0.0 || hit.distance_m < f.distance_m)) {
+        distance = hit.distance_m, geom = hit.geom;
+        cos_incidence = std::clamp(-hit.normal.dot(f.dir), 0.0, 1.0);
+      } else {
+        distance = f.distance_m, geom = f.geom, cos_incidence = f.cos_incidence;
+      }
+    } else {
+      const long slice = static_cast<long>(std::floor(s.t_s / w.options.slice_s));
+      if (slice != current_slice) {
+        // The arm's geometry, posed at the start of the slice.
+        const JointVector q_slice = w.program.q(static_cast<double>(slice) * w.options.slice_s);
+        for (size_t b = 0; b < body_poses.size(); ++b)
+          body_poses[b] = w.body_chains[b].pose(q_slice, body_caches[b]);
+        view.update(body_poses);
+        // All of the slice's rays lie in scan planes between those at its start and end.
+        if (w.options.cull_by_scan_plane) {
+          const double t0 = static_cast<double>(slice) * w.options.slice_s;
+          // The sensor at the slice's start: the last slice's end when they follow each other.
+          const Iso3 A = slice == current_slice + 1 ? slice_end : w.chain.pose(q_slice);
+          const Iso3 B = w.chain.pose(w.program.q(t0 + w.options.slice_s));
+          slice_end = B;
+          const double tilt = Eigen::AngleAxisd(A.linear().transpose() * B.linear()).angle();
+          view.restrict_to_plane(A.translation(), A.linear().col(2),
+                                 (B.translation() - A.translation()).norm(), 1.5 * tilt);
+        }
+        current_slice = slice;
+      }
+      Iso3 T;
+      poses.pose(i, T);
+      if (w.options.record_sensor_poses) w.out.T_base_lidar[i] = T;
+      // The ray leaves the scan centre in the scan plane, counter-clockwise about +z from +x.
+      const Vec3 dir = (T.linear() * beam[k]).normalized();
+      const RayHit hit = view.cast(T.translation(), dir, 1e-6, w.lidar.max_range_m * 1.05);
+      if (hit.hit()) {
+        distance = hit.distance_m, geom = hit.geom;
+        cos_incidence = std::clamp(-hit.normal.dot(dir), 0.0, 1.0);
+      }
+      if (w.record) w.record[i] = FixedRay{T.translation(), dir, distance, cos_incidence, geom};
+    }
+    exact[k] = distance >= 0.0 ? distance : 0.0;
+    double r = 0.0;
+    if (distance >= 0.0) r = errors.measure(distance, cos_incidence);
+    s.range_m = static_cast<float>(r);
+    s.quality = r > 0.0 ? LidarErrorModel::quality(r, cos_incidence) : 0;
+    w.out.geoms[i] = r > 0.0 ? geom : -1;
+    w.out.labels[i] = r > 0.0 ? w.world.geom_label(geom) : Label::kNone;
+  }
+  // Mixed pixels: where neighbours straddle a depth edge, the beam footprint covers both surfaces and the
+  // A2 reports a range in between.
+  if (w.lidar.mixed_pixels) {
+    for (uint32_t k = 0; k + 1 < lt.count; ++k) {
       const size_t i = lt.first + k;
       LidarSample& s = w.out.log.samples[i];
-      // Sample times are integer multiples of the sample period, as the joint log's are.
-      s.t_s = static_cast<double>(i) / w.lidar.sample_rate_hz;  // the double nearest i / rate
-      s.angle_rad = static_cast<float>(k * step);
-      // The first hit: its distance (< 0: none), the cosine of its incidence, and the geom.
-      double distance = -1.0, cos_incidence = 1.0;
-      int geom = -1;
-      if (w.fixed) {
-        // The shared geometry's hit is known: the layout's geoms are cast against up to it.
-        const FixedRay& f = w.fixed[i];
-        const RayHit hit =
-            view.cast(f.origin, f.dir, 1e-6, f.distance_m >= 0.0 ? f.distance_m : w.lidar.max_range_m * 1.05);
-        if (hit.hit() && (f.distance_m < 0.0 || hit.distance_m < f.distance_m)) {
-          distance = hit.distance_m, geom = hit.geom;
-          cos_incidence = std::clamp(-hit.normal.dot(f.dir), 0.0, 1.0);
-        } else {
-          distance = f.distance_m, geom = f.geom, cos_incidence = f.cos_incidence;
-        }
-      } else {
-        const long slice = static_cast<long>(std::floor(s.t_s / w.options.slice_s));
-        if (slice != current_slice) {
-          // The arm's geometry, posed at the start of the slice.
-          const JointVector q_slice = w.program.q(static_cast<double>(slice) * w.options.slice_s);
-          for (size_t b = 0; b < body_poses.size(); ++b)
-            body_poses[b] = w.body_chains[b].pose(q_slice, body_caches[b]);
-          view.update(body_poses);
-          // All of the slice's rays lie in scan planes between those at its start and end.
-          if (w.options.cull_by_scan_plane) {
-            const double t0 = static_cast<double>(slice) * w.options.slice_s;
-            // The sensor at the slice's start: the last slice's end when they follow each other.
-            const Iso3 A = slice == current_slice + 1 ? slice_end : w.chain.pose(q_slice);
-            const Iso3 B = w.chain.pose(w.program.q(t0 + w.options.slice_s));
-            slice_end = B;
-            const double tilt = Eigen::AngleAxisd(A.linear().transpose() * B.linear()).angle();
-            view.restrict_to_plane(A.translation(), A.linear().col(2),
-                                   (B.translation() - A.translation()).norm(), 1.5 * tilt);
-          }
-          current_slice = slice;
-        }
-        const size_t a = i / knot_step * knot_step;
-        if (a != knot_a && a + knot_step < w.out.log.samples.size()) {
-          Ta = knot_a != SIZE_MAX && a == knot_a + knot_step ? Tb
-                                                             : exact_pose(a);  // the last end is this start
-          Tb = exact_pose(a + knot_step);
-          knot_a = a;
-        }
-        Iso3 T = Ta;
-        if (a + knot_step >= w.out.log.samples.size()) {
-          T = exact_pose(i);  // the last samples, past the last knot
-        } else if (i > a) {
-          T = lerp_pose(Ta, Tb, static_cast<double>(i - a) / static_cast<double>(knot_step));
-        }
-        if (w.options.record_sensor_poses) w.out.T_base_lidar[i] = T;
-        // The ray leaves the scan centre in the scan plane, counter-clockwise about +z from +x.
-        const Vec3 dir = (T.linear() * beam[k]).normalized();
-        const RayHit hit = view.cast(T.translation(), dir, 1e-6, w.lidar.max_range_m * 1.05);
-        if (hit.hit()) {
-          distance = hit.distance_m, geom = hit.geom;
-          cos_incidence = std::clamp(-hit.normal.dot(dir), 0.0, 1.0);
-        }
-        if (w.record) w.record[i] = FixedRay{T.translation(), dir, distance, cos_incidence, geom};
-      }
-      exact[k] = distance >= 0.0 ? distance : 0.0;
-      double r = 0.0;
-      if (distance >= 0.0) r = errors.measure(distance, cos_incidence);
-      s.range_m = static_cast<float>(r);
-      s.quality = r > 0.0 ? LidarErrorModel::quality(r, cos_incidence) : 0;
-      w.out.geoms[i] = r > 0.0 ? geom : -1;
-      w.out.labels[i] = r > 0.0 ? w.world.geom_label(geom) : Label::kNone;
+      const double r0 = exact[k], r1 = exact[k + 1];
+      if (s.range_m <= 0.0f || r1 <= 0.0 || std::abs(r1 - r0) < w.lidar.mixed_pixel_jump_m) continue;
+      if (errors.uniform() >= w.lidar.mixed_pixel_probability) continue;
+      double blend = r0 + errors.uniform() * (r1 - r0);
+      if (w.lidar.quantize) blend = std::round(blend / w.lidar.resolution_m) * w.lidar.resolution_m;
+      s.range_m = static_cast<float>(blend);
+      w.out.geoms[i] = -1;
+      w.out.labels[i] = Label::kOther;
     }
-    // Mixed pixels: where neighbours straddle a depth edge, the beam footprint covers both surfaces and the
-    // A2 reports a range in between.
-    if (w.lidar.mixed_pixels) {
-      for (uint32_t k = 0; k + 1 < lt.count; ++k) {
-        const size_t i = lt.first + k;
-        LidarSample& s = w.out.log.samples[i];
-        const double r0 = exact[k], r1 = exact[k + 1];
-        if (s.range_m <= 0.0f || r1 <= 0.0 || std::abs(r1 - r0) < w.lidar.mixed_pixel_jump_m) continue;
-        if (errors.uniform() >= w.lidar.mixed_pixel_probability) continue;
-        double blend = r0 + errors.uniform() * (r1 - r0);
-        if (w.lidar.quantize) blend = std::round(blend / w.lidar.resolution_m) * w.lidar.resolution_m;
-        s.range_m = static_cast<float>(blend);
-        w.out.geoms[i] = -1;
-        w.out.labels[i] = Label::kOther;
-      }
-    }
-    done.fetch_add(1, std::memory_order_relaxed);
   }
 }
 
@@ -209,20 +219,11 @@ SweepResult sweep(const MujocoWorld& world, const RobotModel& robot, const Sweep
   const EmbreeScene scene(world.model(), world.data(), include);
   std::vector<BodyChain> body_chains;
   for (int b : scene.moving_bodies()) body_chains.emplace_back(world.model(), b, world.qpos_adr());
-  const int threads = std::max(
-      1, options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency()));
   const TurnWork work{world, program, lidar,    options, chain, body_chains,
                       scene, out,     per_turn, fixed,   record};
-  std::atomic<size_t> next{0}, done{0};
-  std::vector<std::thread> pool;
-  for (int k = 0; k < threads; ++k)
-    pool.emplace_back(run_turns, std::cref(work), std::ref(next), std::ref(done));
-  while (options.progress && done.load() < turns) {
-    options.progress(static_cast<double>(done.load()) / static_cast<double>(std::max<size_t>(turns, 1)));
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  }
-  for (auto& t : pool) t.join();
-  if (options.progress) options.progress(1.0);
+  parallel_for_with(
+      turns, std::max(0, options.threads), [&] { return TurnCaster(work); },
+      [](TurnCaster& caster, size_t turn) { caster.cast(turn); }, options.progress);
   out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return out;
 }

@@ -9,7 +9,7 @@
 #include <functional>
 #include <nlohmann/json.hpp>
 
-#include "app/calibrate_command.hpp"
+#include "app/mount_file.hpp"
 #include "core/cell_robot.hpp"
 #include "tests/real_data.hpp"
 #include "tests/test_support.hpp"

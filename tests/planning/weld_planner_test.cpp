@@ -14,19 +14,9 @@
 namespace weldtwin {
 namespace {
 
-// Distance from p to a seam (base frame), sampled finely enough for a 0.01 mm check on lines and arcs.
+// Distance from p (base frame) to a seam of the part at T.
 double distance_to_seam(const Seam& seam, const Iso3& T, const Vec3& p) {
-  const Vec3 q = T.inverse() * p;
-  if (seam.kind == Seam::Kind::kLine) {
-    const Vec3 ab = seam.end - seam.start;
-    const double s = std::clamp((q - seam.start).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
-    return (seam.start + s * ab - q).norm();
-  }
-  // Circle: distance to the circle of the arc (the arc covers it whole here).
-  const Vec3 v = q - seam.center;
-  const double h = v.dot(seam.axis);
-  const double radial = (v - h * seam.axis).norm() - seam.radius_m;
-  return std::hypot(h, radial);
+  return seam.distance_to(T.inverse() * p);
 }
 
 struct Planned {

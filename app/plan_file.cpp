@@ -1,9 +1,10 @@
-#include "app/plan_files.hpp"
+#include "app/plan_file.hpp"
 
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "app/json_file.hpp"
 #include "core/error.hpp"
 
 namespace weldtwin {
@@ -15,49 +16,30 @@ constexpr long long kMaxSeams = 1 << 20;       // a seam index beyond any part's
 constexpr size_t kMinWeldSamples = 2;          // a seam is welded over at least two samples
 constexpr double kQuaternionTolerance = 1e-3;  // a written quaternion's length may be off 1 by this much
 
-// A JSON file, or InputError naming it ("cannot open the `what` file", "malformed JSON: ...").
-nlohmann::json read_json_file(const std::string& path, const std::string& what) {
-  std::ifstream in(path);
-  if (!in) throw input_error(path, "cannot open the " + what + " file");
-  try {
-    return nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    throw input_error(path, std::string("malformed JSON: ") + e.what());
+// The name a plan file gives a sample's phase.
+const char* phase_name(Phase phase) {
+  switch (phase) {
+    case Phase::kTransit:
+      return "transit";
+    case Phase::kApproach:
+      return "approach";
+    case Phase::kWeld:
+      return "weld";
+    case Phase::kCorner:
+      return "corner";
+    case Phase::kDeparture:
+      return "departure";
   }
+  return "?";
+}
+
+// A pose as the plan file writes the TCP: x y z [m], then the quaternion w x y z.
+nlohmann::json tcp_json(const Iso3& T) {
+  const Quat q(T.linear());
+  return {T.translation().x(), T.translation().y(), T.translation().z(), q.w(), q.x(), q.y(), q.z()};
 }
 
 }  // namespace
-
-// A pose JSON: {"T_base_part": [[4x4 row-major]], ...} (docs/design.md).
-Iso3 read_pose(const std::string& path) {
-  const nlohmann::json j = read_json_file(path, "pose");
-  if (j.is_object() && j.contains("found") && j["found"] == false) {
-    const std::string why =
-        j.contains("reason") && j["reason"].is_string() ? j["reason"].get<std::string>() : "";
-    throw input_error(path, "the pose says the part was not found" + (why.empty() ? "" : " (" + why + ")") +
-                                ": localize it again before planning");
-  }
-  if (!j.contains("T_base_part")) throw input_error(path, "no field 'T_base_part'");
-  const auto& m = j["T_base_part"];
-  if (!m.is_array() || m.size() != 4) throw input_error(path, "T_base_part must be a 4x4 array");
-  Eigen::Matrix4d M;
-  for (int r = 0; r < 4; ++r) {
-    if (!m[static_cast<size_t>(r)].is_array() || m[static_cast<size_t>(r)].size() != 4)
-      throw input_error(path, "T_base_part must be a 4x4 array");
-    for (int c = 0; c < 4; ++c) {
-      const auto& v = m[static_cast<size_t>(r)][static_cast<size_t>(c)];
-      if (!v.is_number() || !std::isfinite(v.get<double>()))
-        throw input_error(path, "T_base_part has a non-number");
-      M(r, c) = v.get<double>();
-    }
-  }
-  Iso3 T;
-  T.matrix() = M;
-  if ((T.linear() * T.linear().transpose() - Mat3::Identity()).norm() > 1e-6 ||
-      T.linear().determinant() < 0 || (M.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).norm() > 1e-9)
-    throw input_error(path, "T_base_part is not a rigid transform");
-  return orthonormalized(T);
-}
 
 WeldPlan read_plan(const std::string& path) {
   const nlohmann::json j = read_json_file(path, "plan");
@@ -126,6 +108,43 @@ void check_plan_for_part(const WeldPlan& plan, const PartSpec& part, const std::
     if (welded[i] < kMinWeldSamples)
       throw input_error(path, "the plan does not weld seam '" + part.seams[i].name + "' of part '" +
                                   part.name + "' (" + std::to_string(welded[i]) + " arc-on samples)");
+}
+
+nlohmann::json plan_to_json(const WeldPlan& plan, const PartSpec& part, const RobotModel& robot,
+                            const PlanSetting& setting) {
+  nlohmann::json out;
+  out["part"] = part.name;
+  out["robot"] = robot.name();
+  out["ok"] = plan.ok();
+  out["problems"] = plan.problems;
+  out["notes"] = plan.notes;
+  out["sample_hz"] = setting.sample_hz;
+  out["duration_s"] = plan.duration_s();
+  out["T_flange_tcp"] = transform_json(plan.T_flange_tcp);
+  for (const PlannedSeam& s : plan.seams) {
+    nlohmann::json rolls = nlohmann::json::array();
+    for (double r : s.roll_per_piece_rad) rolls.push_back(r * 180.0 / kPi);
+    out["seams"].push_back({{"name", s.name},
+                            {"start_base", {s.start_base.x(), s.start_base.y(), s.start_base.z()}},
+                            {"end_base", {s.end_base.x(), s.end_base.y(), s.end_base.z()}},
+                            {"length_m", s.length_m},
+                            {"speed_m_s", s.speed_m_s},
+                            {"pieces", s.pieces},
+                            {"torch_roll_deg", rolls},
+                            {"work_angle_deg", s.work_angle_rad * 180.0 / kPi},
+                            {"travel_angle_deg", s.travel_angle_rad * 180.0 / kPi},
+                            {"reversed", s.reversed}});
+  }
+  nlohmann::json samples = nlohmann::json::array();
+  for (const PlanSample& s : plan.samples)
+    samples.push_back({{"t", s.t_s},
+                       {"q", {s.q[0], s.q[1], s.q[2], s.q[3], s.q[4], s.q[5]}},
+                       {"tcp", tcp_json(s.T_base_tcp)},
+                       {"seam", s.seam},
+                       {"arc", s.arc},
+                       {"phase", phase_name(s.phase)}});
+  out["samples"] = std::move(samples);
+  return out;
 }
 
 }  // namespace weldtwin
