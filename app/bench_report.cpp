@@ -418,7 +418,7 @@ int run_bench_report(const BenchReportCommand& cmd) {
   }
   h << "<p style=\"color:#777;font-size:.8em\">All figures: summary.json beside this page; every trial: "
        "results.jsonl.</p>\n</body></html>\n";
-  std::ofstream(cmd.out + "/report.html") << h.str();
+  write_text_file(cmd.out + "/report.html", h.str());
   std::printf("bench-report: %zu trials; ours seams within 1 mm %s; paper %s; report %s/report.html\n",
               trials.size(), pct_ci(all["ours"]["seams_under_1mm"]).c_str(),
               all.contains("paper") ? pct_ci(all["paper"]["seams_under_1mm"]).c_str() : "-", cmd.out.c_str());

@@ -24,12 +24,16 @@ nlohmann::json read_json_file(const std::string& path, const std::string& what) 
   }
 }
 
-void write_json_file(const std::string& path, const nlohmann::json& j, int indent) {
-  std::ofstream out(path, std::ios::trunc);
+void write_text_file(const std::string& path, const std::string& text) {
+  std::ofstream out(path, std::ios::trunc | std::ios::binary);
   if (!out) throw input_error(path, "cannot be written");
-  out << j.dump(indent) << '\n';
+  out << text;
   out.close();
   if (!out) throw input_error(path, "could not be written whole (disk full?)");
+}
+
+void write_json_file(const std::string& path, const nlohmann::json& j, int indent) {
+  write_text_file(path, j.dump(indent) + '\n');
 }
 
 nlohmann::json transform_json(const Iso3& T) {

@@ -58,16 +58,7 @@ int run_plan(const PlanCommand& cmd) {
   nlohmann::json out = plan_to_json(plan, part, robot, setting);
   out["collisions_checked"] = checked;
   write_json_file(cmd.out, out, -1);
-  if (!cmd.csv.empty()) {
-    std::ofstream csv(cmd.csv);
-    csv << "t,j1,j2,j3,j4,j5,j6\n";
-    char line[256];
-    for (const PlanSample& s : plan.samples) {
-      std::snprintf(line, sizeof line, "%.4f,%.9f,%.9f,%.9f,%.9f,%.9f,%.9f\n", s.t_s, s.q[0], s.q[1], s.q[2],
-                    s.q[3], s.q[4], s.q[5]);
-      csv << line;
-    }
-  }
+  if (!cmd.csv.empty()) write_text_file(cmd.csv, plan_to_csv(plan));
   if (!cmd.quiet) {
     std::fprintf(stderr, "plan: %s, %zu seams, %.1f s, %zu samples at %.0f Hz -> %s\n", part.name.c_str(),
                  plan.seams.size(), plan.duration_s(), plan.samples.size(), setting.sample_hz,

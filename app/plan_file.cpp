@@ -1,6 +1,7 @@
 #include "app/plan_file.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -145,6 +146,17 @@ nlohmann::json plan_to_json(const WeldPlan& plan, const PartSpec& part, const Ro
                        {"phase", phase_name(s.phase)}});
   out["samples"] = std::move(samples);
   return out;
+}
+
+std::string plan_to_csv(const WeldPlan& plan) {
+  std::string csv = "t,j1,j2,j3,j4,j5,j6\n";
+  char line[256];
+  for (const PlanSample& s : plan.samples) {
+    std::snprintf(line, sizeof line, "%.4f,%.9f,%.9f,%.9f,%.9f,%.9f,%.9f\n", s.t_s, s.q[0], s.q[1], s.q[2],
+                  s.q[3], s.q[4], s.q[5]);
+    csv += line;
+  }
+  return csv;
 }
 
 }  // namespace weldtwin

@@ -23,4 +23,7 @@ void check_plan_for_part(const WeldPlan& plan, const PartSpec& part, const std::
 nlohmann::json plan_to_json(const WeldPlan& plan, const PartSpec& part, const RobotModel& robot,
                             const PlanSetting& setting);
 
+/// The plan's joint trajectory as CSV: a header `t,j1,...,j6`, then one line per sample [s], [rad].
+std::string plan_to_csv(const WeldPlan& plan);
+
 }  // namespace weldtwin

@@ -463,7 +463,7 @@ double write_report(const RunRecord& run, const std::string& dir, bool renders) 
   }
   h << "<p style=\"color:#777;font-size:.8em\">All figures: report.json beside this "
        "page.</p>\n</body></html>\n";
-  std::ofstream(dir + "/report.html") << h.str();
+  write_text_file(dir + "/report.html", h.str());
   return seconds;
 }
 

@@ -299,7 +299,7 @@ int run_job(const RunCommand& cmd) {
         say(stage, "dry run: nothing would be sent (the run did not pass)");
       } else {
         const JointTrajectory t = plan_trajectory(*run.plan, cmd.out + "/plan.json");
-        std::ofstream(cmd.out + "/robot_dry_run.json") << driver->dry_run(t) << '\n';
+        write_text_file(cmd.out + "/robot_dry_run.json", driver->dry_run(t) + '\n');
         std::snprintf(buf, sizeof buf,
                       "dry run: %zu samples (%.1f s at speed %.2f) would go to %s; requests in "
                       "%s/robot_dry_run.json; --execute sends them",

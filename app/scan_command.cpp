@@ -33,7 +33,7 @@ int run_scan(const ScanCommand& cmd) {
   const CellLayout layout = make_layout(cell, part, cmd.seed);
   const MujocoWorld world(cell, part, robot, layout);
   if (!cmd.mjcf.empty()) {
-    std::ofstream(cmd.mjcf) << world.mjcf();
+    write_text_file(cmd.mjcf, world.mjcf());
     say("wrote the composed MJCF to " + cmd.mjcf);
   }
 

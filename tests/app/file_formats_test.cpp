@@ -3,9 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <random>
+#include <sstream>
 
 #include "app/json_file.hpp"
 #include "app/mount_file.hpp"
@@ -103,6 +106,21 @@ TEST(PlanFile, WhatIsWrittenIsReadBack) {
     EXPECT_EQ(a.seam, b.seam);
     EXPECT_EQ(a.arc, b.arc);
   }
+  // The CSV: a header, then one line per sample with t and the six joints.
+  std::istringstream csv(plan_to_csv(plan));
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line, "t,j1,j2,j3,j4,j5,j6");
+  for (const PlanSample& s : plan.samples) {
+    ASSERT_TRUE(std::getline(csv, line));
+    double v[7];
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf", &v[0], &v[1], &v[2], &v[3], &v[4],
+                          &v[5], &v[6]),
+              7);
+    EXPECT_NEAR(v[0], s.t_s, 1e-4);
+    for (int j = 0; j < 6; ++j) EXPECT_NEAR(v[j + 1], s.q[j], 1e-9);
+  }
+  EXPECT_FALSE(std::getline(csv, line));
   // The tube on its plate has four seams and the plan welds each; the round tube has one, and the plan names
   // seams it does not have.
   EXPECT_EQ(input_error_of([&] { check_plan_for_part(back, part, path); }), "");
@@ -145,9 +163,21 @@ TEST(MountFile, WhatIsNotAMountIsRefused) {
 
 TEST(JsonFile, AFileThatCannotBeWrittenIsNamed) {
   const std::string path = "/nonexistent_dir_of_weldtwin/out.json";
-  const std::string why = input_error_of([&] { write_json_file(path, nlohmann::json::object()); });
-  EXPECT_NE(why.find(path), std::string::npos) << why;
-  EXPECT_NE(why.find("cannot be written"), std::string::npos) << why;
+  for (const std::string& why : {input_error_of([&] { write_json_file(path, nlohmann::json::object()); }),
+                                 input_error_of([&] { write_text_file(path, "<html></html>"); })}) {
+    EXPECT_NE(why.find(path), std::string::npos) << why;
+    EXPECT_NE(why.find("cannot be written"), std::string::npos) << why;
+  }
+  // A device that refuses every byte: the write is found short when the file is closed.
+  if (std::filesystem::exists("/dev/full")) {
+    const std::string full = input_error_of([&] { write_text_file("/dev/full", std::string(1 << 16, 'x')); });
+    EXPECT_NE(full.find("could not be written whole"), std::string::npos) << full;
+  }
+  // What is written is all there.
+  const std::string text(100000, 'w');
+  write_text_file(temp_path("text.html"), text);
+  std::ifstream in(temp_path("text.html"), std::ios::binary);
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(in), {}), text);
 }
 
 }  // namespace
