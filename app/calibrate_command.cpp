@@ -3,7 +3,6 @@
 #include <tinyxml.h>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "app/json_file.hpp"

@@ -5,7 +5,6 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 
 #include "app/json_file.hpp"
 #include "app/mount_file.hpp"

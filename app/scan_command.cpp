@@ -3,7 +3,6 @@
 #include "hw/ros_bags.hpp"
 
 #include <cstdio>
-#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "app/json_file.hpp"

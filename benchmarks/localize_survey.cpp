@@ -17,7 +17,6 @@
 #include <mutex>
 #include <optional>
 #include <random>
-#include <thread>
 
 #include "benchmarks/real_scan_check.hpp"
 #include "core/cell_robot.hpp"

@@ -1,7 +1,6 @@
 #include "sim/replay.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>

@@ -1,14 +1,12 @@
 #include "sim/sweep_sim.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <functional>
 #include <stdexcept>
 #include <string>
-#include <thread>
 
 #include "core/knot_poses.hpp"
 #include "core/parallel_for.hpp"
