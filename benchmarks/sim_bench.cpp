@@ -10,7 +10,6 @@
 #include "core/cell_spec.hpp"
 #include "core/part_spec.hpp"
 #include "planning/weld_planner.hpp"
-#include "sim/body_chain.hpp"
 #include "sim/collision_check.hpp"
 #include "sim/contact_prefilter.hpp"
 #include "sim/embree_scene.hpp"
@@ -116,15 +115,18 @@ namespace {
 // The LiDAR's pose per sample: the plain chain product against the cached one, in a base-joint pass.
 void BM_LidarPose(benchmark::State& state) {
   DefaultCell& c = cell();
-  const BodyChain chain(c.world.model(), c.world.body("lidar"), c.world.qpos_adr());
-  BodyChain::Cache cache;
+  const RobotModel& arm = c.world.robot();
+  const int lidar = arm.require_link("lidar");
+  RobotModel::ChainCache cache;
   const bool cached = state.range(0) != 0;
   double t = 0.0, sum = 0.0;
   for (auto _ : state) {
     const JointVector q = c.program.q(2.0 + t);  // inside the first pass: only J1 moves
     t += 1.25e-4;
     if (t > 10.0) t = 0.0;
-    sum += (cached ? chain.pose(q, cache) : chain.pose(q)).translation().x();
+    sum += (cached ? arm.forward_kinematics(q, lidar, cache) : arm.forward_kinematics(q, lidar))
+               .translation()
+               .x();
   }
   benchmark::DoNotOptimize(sum);
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));

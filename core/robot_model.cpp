@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -329,6 +330,60 @@ Iso3 RobotModel::forward_kinematics(const JointVector& q, int link) const {
     if (l.q_index >= 0) T.rotate(Eigen::AngleAxisd(q[l.q_index], l.axis));
   }
   return T;
+}
+
+namespace {
+
+// R := R * Rot(axis, angle); about z (every joint of our arms) on two columns only.
+void turn(Mat3& R, const Vec3& axis, double angle) {
+  if (axis == Vec3::UnitZ()) {
+    const double c = std::cos(angle), s = std::sin(angle);
+    const Vec3 x = R.col(0), y = R.col(1);
+    R.col(0) = c * x + s * y;
+    R.col(1) = c * y - s * x;
+  } else {
+    R = R * Eigen::AngleAxisd(angle, axis).toRotationMatrix();
+  }
+}
+
+}  // namespace
+
+Iso3 RobotModel::forward_kinematics(const JointVector& q, int link, ChainCache& cache) const {
+  if (link < 0 || link >= static_cast<int>(links_.size()))
+    throw std::out_of_range("forward_kinematics: no link " + std::to_string(link) + " in " + name_);
+  const bool fresh = cache.link != link;
+  if (fresh) {
+    cache = ChainCache();
+    cache.link = link;
+    for (int i = link; i >= 0; i = links_.at(static_cast<size_t>(i)).parent) cache.chain.push_back(i);
+    std::reverse(cache.chain.begin(), cache.chain.end());
+    cache.R.assign(cache.chain.size() + 1, Mat3::Identity());
+    cache.p.assign(cache.chain.size() + 1, Vec3::Zero());
+  }
+  const size_t n = cache.chain.size();
+  // The last link whose joint changed bounds what must be recomputed; a fresh cache recomputes everything.
+  size_t dirty = fresh ? n - 1 : 0;
+  bool any = fresh;
+  for (size_t k = 0; !fresh && k < n; ++k) {
+    const int j = links_[static_cast<size_t>(cache.chain[k])].q_index;
+    if (j >= 0 && !(q[j] == cache.q[j])) {
+      dirty = k;
+      any = true;
+    }
+  }
+  if (any) {
+    for (size_t k = dirty + 1; k-- > 0;) {
+      // S_k = A_k Rot_k(q) S_{k+1}; the root is the base frame itself.
+      const RobotLink& l = links_[static_cast<size_t>(cache.chain[k])];
+      const Iso3 A = l.parent < 0 ? Iso3::Identity() : l.T_parent_joint;
+      Mat3 R = A.linear();
+      if (l.q_index >= 0) turn(R, l.axis, q[l.q_index]);
+      cache.p[k] = A.translation() + R * cache.p[k + 1];
+      cache.R[k] = R * cache.R[k + 1];
+    }
+    cache.q = q;
+  }
+  return make_transform(cache.p[0], cache.R[0]);
 }
 
 RobotModel RobotModel::with_mount_offset(const std::string& link_name, const Iso3& delta) const {

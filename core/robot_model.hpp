@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -85,6 +86,21 @@ class RobotModel {
   void forward_kinematics(const JointVector& q, std::vector<Iso3>& T_base_link) const;
   /// T_base_link for one link.
   Iso3 forward_kinematics(const JointVector& q, int link) const;
+
+  /// What forward_kinematics(q, link, cache) keeps between calls: the chain from the root to the link and
+  /// the products from each of its links to the end. One per link asked and per thread.
+  struct ChainCache {
+    int link = -1;
+    std::vector<int> chain;  ///< link indices, root first
+    JointVector q = JointVector::Constant(std::numeric_limits<double>::quiet_NaN());
+    std::vector<Mat3> R;  ///< rotation of the product from chain link k to the end
+    std::vector<Vec3> p;  ///< its translation
+  };
+  /// T_base_link for one link asked very often (the sweep poses the LiDAR at every sample and the arm's
+  /// bodies at every turn): when only the first joints changed since the last call (a base-joint pass),
+  /// only their part of the product is recomputed. Equal to forward_kinematics(q, link) to rounding (the
+  /// products are associated the other way).
+  Iso3 forward_kinematics(const JointVector& q, int link, ChainCache& cache) const;
 
   /// Joint limits in q order [rad], [rad/s], [rad/s^2].
   JointVector lower() const { return lower_; }

@@ -24,6 +24,17 @@ RTCGeometry triangle_geometry(RTCDevice device, const std::vector<Vec3>& vertice
   return geom;
 }
 
+RTCScene mesh_scene(RTCDevice device, const std::vector<Vec3>& vertices,
+                    const std::vector<Eigen::Vector3i>& triangles) {
+  RTCScene scene = rtcNewScene(device);
+  RTCGeometry geom = triangle_geometry(device, vertices, triangles);
+  rtcCommitGeometry(geom);
+  rtcAttachGeometry(scene, geom);
+  rtcReleaseGeometry(geom);
+  rtcCommitScene(scene);
+  return scene;
+}
+
 RTCRayHit ray(const Vec3& origin, const Vec3& dir, double t_min, double t_max) {
   RTCRayHit rh{};
   rh.ray.org_x = static_cast<float>(origin.x());

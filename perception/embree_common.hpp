@@ -20,6 +20,11 @@ RTCDevice new_device();
 RTCGeometry triangle_geometry(RTCDevice device, const std::vector<Vec3>& vertices,
                               const std::vector<Eigen::Vector3i>& triangles);
 
+/// A committed scene of `device` holding those triangles alone: one mesh to cast rays at and query (a part's
+/// mesh; a moving body's mesh in its own frame).
+RTCScene mesh_scene(RTCDevice device, const std::vector<Vec3>& vertices,
+                    const std::vector<Eigen::Vector3i>& triangles);
+
 /// The ray from `origin` along unit `dir` over [t_min, t_max] as Embree takes it, with no hit yet.
 RTCRayHit ray(const Vec3& origin, const Vec3& dir, double t_min, double t_max);
 

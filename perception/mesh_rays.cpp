@@ -69,9 +69,7 @@ bool nearest_triangle(RTCPointQueryFunctionArguments* args) {
 
 MeshRays::MeshRays(const Mesh& mesh) : impl_(std::make_unique<Impl>()) {
   impl_->device = embree::new_device();
-  impl_->scene = rtcNewScene(impl_->device);
-  RTCGeometry geom = embree::triangle_geometry(impl_->device, mesh.vertices, mesh.faces);
-  rtcCommitGeometry(geom);
+  impl_->scene = embree::mesh_scene(impl_->device, mesh.vertices, mesh.faces);
   impl_->vertices = mesh.vertices;
   impl_->faces = mesh.faces;
   impl_->normals.reserve(mesh.faces.size());
@@ -80,9 +78,6 @@ MeshRays::MeshRays(const Mesh& mesh) : impl_(std::make_unique<Impl>()) {
                &c = mesh.vertices[static_cast<size_t>(fi[2])];
     impl_->normals.push_back((b - a).cross(c - a).normalized());
   }
-  rtcAttachGeometry(impl_->scene, geom);
-  rtcReleaseGeometry(geom);
-  rtcCommitScene(impl_->scene);
 }
 
 MeshRays::~MeshRays() {

@@ -259,12 +259,7 @@ EmbreeScene::EmbreeScene(const mjModel* m, const mjData* d, const std::function<
     if (s->type == mjGEOM_MESH || (is_static && s->type == mjGEOM_BOX)) triangulate(m, g, *s);
     if (!is_static) {
       if (!s->triangles.empty()) {
-        s->local = rtcNewScene(device_);
-        RTCGeometry geom = embree::triangle_geometry(device_, s->vertices, s->triangles);
-        rtcCommitGeometry(geom);
-        rtcAttachGeometry(s->local, geom);
-        rtcReleaseGeometry(geom);
-        rtcCommitScene(s->local);
+        s->local = embree::mesh_scene(device_, s->vertices, s->triangles);
       }
       int& k = moving_of_body[static_cast<size_t>(body)];
       if (k < 0) {

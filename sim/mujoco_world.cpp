@@ -389,7 +389,7 @@ std::string compose_cell_mjcf(const CellSpec& cell, const PartSpec& part, const 
 
 MujocoWorld::MujocoWorld(const CellSpec& cell, const PartSpec& part, const RobotModel& robot,
                          const CellLayout& layout)
-    : mjcf_(compose_cell_mjcf(cell, part, robot, layout)) {
+    : mjcf_(compose_cell_mjcf(cell, part, robot, layout)), robot_(robot) {
   model_ = load_mjcf(mjcf_, std::filesystem::path(cell.environment_mjcf).parent_path().string(),
                      cell.environment_mjcf);
   data_.reset(mj_makeData(model_.get()));
@@ -399,6 +399,9 @@ MujocoWorld::MujocoWorld(const CellSpec& cell, const PartSpec& part, const Robot
     if (j < 0) throw std::logic_error("composed cell lost joint " + name);
     qpos_adr_.push_back(m->jnt_qposadr[j]);
   }
+  body_link_.assign(static_cast<size_t>(m->nbody), -1);
+  for (size_t i = 0; i < robot.links().size(); ++i)
+    body_link_[static_cast<size_t>(body(body_name(robot.links()[i])))] = static_cast<int>(i);
   const int robot_root = body(body_name(robot.links().front()));
   geom_labels_.resize(static_cast<size_t>(m->ngeom), Label::kOther);
   placed_.assign(static_cast<size_t>(m->ngeom), 0);

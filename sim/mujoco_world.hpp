@@ -75,12 +75,19 @@ class MujocoWorld {
   int body(const std::string& name) const;  ///< body id, throws std::out_of_range if missing
   /// qpos address of each arm joint, URDF order.
   const std::vector<int>& qpos_adr() const { return qpos_adr_; }
+  /// The arm the world was composed with (its base is the world frame): its forward kinematics pose the
+  /// arm's bodies wherever mj_kinematics is not wanted.
+  const RobotModel& robot() const { return robot_; }
+  /// The arm's link a body mirrors (RobotModel::links() index), -1 for a body that is not the arm's.
+  int robot_link(int body) const { return body_link_.at(static_cast<size_t>(body)); }
 
  private:
   ModelPtr model_;
   DataPtr data_;
   std::string mjcf_;
   std::vector<int> qpos_adr_;  ///< qpos address of each URDF joint
+  RobotModel robot_;
+  std::vector<int> body_link_;  ///< per body: the arm's link, or -1
   std::vector<Label> geom_labels_;
   std::vector<char> placed_;  ///< per geom: placed by the layout
 };

@@ -10,7 +10,6 @@
 
 #include "core/knot_poses.hpp"
 #include "core/parallel_for.hpp"
-#include "sim/body_chain.hpp"
 #include "sim/embree_scene.hpp"
 
 namespace weldtwin {
@@ -21,8 +20,9 @@ struct TurnWork {
   const SweepProgram& program;
   const LidarSetting& lidar;
   const SweepOptions& options;
-  const BodyChain& chain;
-  const std::vector<BodyChain>& body_chains;  ///< one per moving body of the scene
+  const RobotModel& arm;               ///< the arm the world was composed with
+  int lidar_link;                      ///< its LiDAR link
+  const std::vector<int>& body_links;  ///< the arm's link of each moving body of the scene
   const EmbreeScene& scene;
   SweepResult& out;
   int samples_per_turn;
@@ -35,8 +35,8 @@ struct TurnWork {
 struct TurnCaster {
   explicit TurnCaster(const TurnWork& work)
       : w(work),
-        body_caches(w.body_chains.size()),
-        body_poses(w.body_chains.size()),
+        body_caches(w.body_links.size()),
+        body_poses(w.body_links.size()),
         view(w.scene.make_view()),
         step(2.0 * kPi / w.samples_per_turn),
         exact(static_cast<size_t>(w.samples_per_turn)),
@@ -51,8 +51,8 @@ struct TurnCaster {
   void cast(size_t turn);
 
   const TurnWork& w;
-  BodyChain::Cache chain_cache;
-  std::vector<BodyChain::Cache> body_caches;
+  RobotModel::ChainCache chain_cache;
+  std::vector<RobotModel::ChainCache> body_caches;
   std::vector<Iso3> body_poses;
   EmbreeScene::View view;
   long current_slice = -1;
@@ -70,7 +70,8 @@ void TurnCaster::cast(size_t turn) {
   // between: over a few milliseconds the arm's motion is a straight line to far under a micrometre.
   const size_t knot_step = static_cast<size_t>(std::max(1, w.options.sensor_knot_samples));
   auto exact_pose = [&](size_t sample) {
-    return w.chain.pose(w.program.q(static_cast<double>(sample) / w.lidar.sample_rate_hz), chain_cache);
+    return w.arm.forward_kinematics(w.program.q(static_cast<double>(sample) / w.lidar.sample_rate_hz),
+                                    w.lidar_link, chain_cache);
   };
   // Sample times are i / rate: the index is the time in sample periods, and every knot is near enough.
   KnotPoses poses(
@@ -106,14 +107,15 @@ void TurnCaster::cast(size_t turn) {
         // The arm's geometry, posed at the start of the slice.
         const JointVector q_slice = w.program.q(static_cast<double>(slice) * w.options.slice_s);
         for (size_t b = 0; b < body_poses.size(); ++b)
-          body_poses[b] = w.body_chains[b].pose(q_slice, body_caches[b]);
+          body_poses[b] = w.arm.forward_kinematics(q_slice, w.body_links[b], body_caches[b]);
         view.update(body_poses);
         // All of the slice's rays lie in scan planes between those at its start and end.
         if (w.options.cull_by_scan_plane) {
           const double t0 = static_cast<double>(slice) * w.options.slice_s;
           // The sensor at the slice's start: the last slice's end when they follow each other.
-          const Iso3 A = slice == current_slice + 1 ? slice_end : w.chain.pose(q_slice);
-          const Iso3 B = w.chain.pose(w.program.q(t0 + w.options.slice_s));
+          const Iso3 A =
+              slice == current_slice + 1 ? slice_end : w.arm.forward_kinematics(q_slice, w.lidar_link);
+          const Iso3 B = w.arm.forward_kinematics(w.program.q(t0 + w.options.slice_s), w.lidar_link);
           slice_end = B;
           const double tilt = Eigen::AngleAxisd(A.linear().transpose() * B.linear()).angle();
           view.restrict_to_plane(A.translation(), A.linear().col(2),
@@ -202,7 +204,8 @@ SweepResult sweep(const MujocoWorld& world, const RobotModel& robot, const Sweep
     log.joints[k].q = program.q(log.joints[k].t_s);
   }
 
-  const BodyChain chain(world.model(), world.body(options.lidar_link), world.qpos_adr());
+  const RobotModel& arm = world.robot();
+  const int lidar_link = arm.require_link(options.lidar_link);
   const FixedRay* fixed = record ? nullptr : options.fixed_rays;
   if (fixed && options.fixed_ray_count != n)
     throw std::invalid_argument("simulate_sweep: fixed_rays are for " +
@@ -215,10 +218,13 @@ SweepResult sweep(const MujocoWorld& world, const RobotModel& robot, const Sweep
   if (fixed) include = [&world](int g) { return world.placed_by_layout(g); };
   if (record) include = [&world](int g) { return !world.placed_by_layout(g); };
   const EmbreeScene scene(world.model(), world.data(), include);
-  std::vector<BodyChain> body_chains;
-  for (int b : scene.moving_bodies()) body_chains.emplace_back(world.model(), b, world.qpos_adr());
-  const TurnWork work{world, program, lidar,    options, chain, body_chains,
-                      scene, out,     per_turn, fixed,   record};
+  std::vector<int> body_links;
+  for (int b : scene.moving_bodies()) {
+    body_links.push_back(world.robot_link(b));
+    if (body_links.back() < 0) throw std::logic_error("simulate_sweep: a moving body that is not the arm's");
+  }
+  const TurnWork work{world,      program, lidar, options,  arm,   lidar_link,
+                      body_links, scene,   out,   per_turn, fixed, record};
   parallel_for_with(
       turns, std::max(0, options.threads), [&] { return TurnCaster(work); },
       [](TurnCaster& caster, size_t turn) { caster.cast(turn); }, options.progress);

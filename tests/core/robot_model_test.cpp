@@ -4,6 +4,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <random>
+#include <stdexcept>
+#include <vector>
 
 #include "core/error.hpp"
 #include "tests/test_support.hpp"
@@ -48,6 +51,59 @@ TEST(RobotModel, SingleLinkFkEqualsTreeFk) {
     for (size_t l = 0; l < all.size(); ++l)
       EXPECT_TRUE(robot.forward_kinematics(q, static_cast<int>(l)).isApprox(all[l], 1e-12));
   }
+}
+
+TEST(RobotModel, CachedChainFkEqualsTreeFkWhateverJointsChange) {
+  // Our arm turns every joint about z; a made-up arm with x, y and skewed axes and a fixed link at the end
+  // covers the other branch. One cache is shared by all links in turn (it must notice the link changed).
+  const char* twisted = R"(<robot name="twisted">
+  <link name="base"/><link name="a"/><link name="b"/><link name="c"/><link name="tip"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="a"/><origin xyz="0 0 0.1"/>
+    <axis xyz="1 0 0"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="a"/><child link="b"/><origin xyz="0.2 0 0" rpy="0.3 0 0"/>
+    <axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <joint name="j3" type="revolute"><parent link="b"/><child link="c"/><origin xyz="0 0.2 0"/>
+    <axis xyz="0.6 0 0.8"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <joint name="j4" type="revolute"><parent link="c"/><child link="d"/><origin xyz="0 0 0.1"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <link name="d"/><link name="e"/><link name="f"/>
+  <joint name="j5" type="revolute"><parent link="d"/><child link="e"/><origin xyz="0.1 0 0"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <joint name="j6" type="revolute"><parent link="e"/><child link="f"/><origin xyz="0 0 0.05"/>
+    <axis xyz="0 -1 0"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <joint name="fix" type="fixed"><parent link="f"/><child link="tip"/><origin xyz="0.01 0.02 0.3" rpy="0.1 0.2 0.3"/></joint>
+</robot>)";
+  const RobotModel aubo = RobotModel::load(test::repo("scenes/robots/aubo_i5.urdf"));
+  const RobotModel made_up = RobotModel::from_string(twisted, "twisted.urdf");
+  for (const RobotModel* robot : {&aubo, &made_up}) {
+    const RobotModel offset = robot->with_mount_offset(
+        robot->links().back().name,
+        make_transform(Vec3(0.004, -0.003, 0.002), Mat3(Eigen::AngleAxisd(0.01, Vec3::UnitY()))));
+    for (const RobotModel* r : {robot, &offset}) {
+      std::mt19937_64 rng(5);
+      RobotModel::ChainCache cache;
+      std::vector<Iso3> all;
+      JointVector q = test::random_q(*r, rng);
+      for (int k = 0; k < 600; ++k) {
+        const JointVector fresh = test::random_q(*r, rng);
+        const int j = k % 7;  // one joint changes, or (6) all of them
+        if (j < 6)
+          q[j] = fresh[j];
+        else
+          q = fresh;
+        r->forward_kinematics(q, all);
+        const int link = (k / 7) % static_cast<int>(all.size());
+        const Iso3 T = r->forward_kinematics(q, link, cache);
+        EXPECT_LT((T.translation() - all[static_cast<size_t>(link)].translation()).norm(), 1e-13)
+            << r->name() << " link " << link << " step " << k;
+        EXPECT_LT((T.linear() - all[static_cast<size_t>(link)].linear()).cwiseAbs().maxCoeff(), 1e-13)
+            << r->name() << " link " << link << " step " << k;
+      }
+    }
+  }
+  RobotModel::ChainCache cache;
+  EXPECT_THROW(aubo.forward_kinematics(JointVector::Zero(), -1, cache), std::out_of_range);
+  EXPECT_THROW(aubo.forward_kinematics(JointVector::Zero(), 1000, cache), std::out_of_range);
 }
 
 TEST(RobotModel, LimitsAreTheDatasheetFigures) {

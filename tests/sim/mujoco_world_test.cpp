@@ -5,7 +5,6 @@
 
 #include <set>
 
-#include "sim/body_chain.hpp"
 #include "tests/test_support.hpp"
 
 namespace weldtwin {
@@ -40,20 +39,31 @@ TEST(MujocoWorld, UrdfKinematicsEqualMujocoBodyPosesFor1000Configurations) {
   EXPECT_LT(worst_r, 1e-9);
 }
 
-TEST(MujocoWorld, BodyChainEqualsMjKinematics) {
+TEST(MujocoWorld, TheArmsCachedChainPosesItsBodiesAsMjKinematics) {
+  // The sweep poses the LiDAR and the arm's bodies through the world's robot model with a chain cache;
+  // whatever joints change between calls (the base alone, a wrist alone, all), it must agree with MuJoCo.
   test::Cell cell;
   const MujocoWorld& w = *cell.world;
+  const RobotModel& arm = w.robot();
   for (const char* link : {"lidar", "tcp", "shoulder_Link"}) {
-    const BodyChain chain(w.model(), w.body(link), w.qpos_adr());
+    const int body = w.body(link);
+    ASSERT_EQ(w.robot_link(body), arm.require_link(link));
+    RobotModel::ChainCache cache;
     std::mt19937_64 rng(11);
-    for (int k = 0; k < 200; ++k) {
-      const JointVector q = test::random_q(cell.robot, rng);
+    JointVector q = test::random_q(cell.robot, rng);
+    for (int k = 0; k < 300; ++k) {
+      const JointVector r = test::random_q(cell.robot, rng);
+      const int changed = k % 3;  // 0: J1 only, 1: J5 only, 2: all
+      if (changed == 0) q[0] = r[0];
+      if (changed == 1) q[4] = r[4];
+      if (changed == 2) q = r;
       w.set_joints(w.data(), q);
-      const Iso3 a = chain.pose(q), b = body_pose(w.data(), w.body(link));
-      EXPECT_LT((a.translation() - b.translation()).norm(), 1e-12) << link;
-      EXPECT_LT((a.linear() - b.linear()).cwiseAbs().maxCoeff(), 1e-12) << link;
+      const Iso3 a = arm.forward_kinematics(q, w.robot_link(body), cache), b = body_pose(w.data(), body);
+      EXPECT_LT((a.translation() - b.translation()).norm(), 1e-12) << link << " step " << k;
+      EXPECT_LT((a.linear() - b.linear()).cwiseAbs().maxCoeff(), 1e-12) << link << " step " << k;
     }
   }
+  EXPECT_EQ(w.robot_link(w.body("part")), -1);
 }
 
 TEST(MujocoWorld, GeomsAreLabelledByOwner) {
