@@ -543,7 +543,7 @@ int run_bench(const BenchCommand& cmd_in) {
   // --resume: the finished lines of an earlier run of the same benchmark are kept (a cut-off last line is
   // not).
   std::map<uint64_t, std::string> earlier;
-  if (cmd.resume && std::filesystem::exists(cmd.out)) {
+  if (cmd.resume && std::filesystem::is_regular_file(cmd.out)) {
     std::ifstream in(cmd.out);
     for (std::string text; std::getline(in, text);) {
       json j;
@@ -585,6 +585,8 @@ int run_bench(const BenchCommand& cmd_in) {
   finished = resumed;
   while (written < lines.size() && done[written]) out << lines[written++] << '\n';
   out.flush();
+  if (!out) throw InputError(cmd.out + ": cannot be written (is the disk full?)");
+  bool write_failed = false;  // a trial's line could not be saved: the run stops, the lines before it kept
   if (resumed > 0 && !cmd.quiet)
     std::fprintf(stderr, "bench: %zu trials kept from %s\n", resumed, cmd.out.c_str());
   const auto t_start = Clock::now();
@@ -604,6 +606,7 @@ int run_bench(const BenchCommand& cmd_in) {
       ++written;
     }
     out.flush();
+    write_failed = write_failed || !out;
     if (cmd.quiet) return;
     const double elapsed = std::chrono::duration<double>(Clock::now() - t_start).count();
     const double eta =
@@ -669,7 +672,7 @@ int run_bench(const BenchCommand& cmd_in) {
     w.pid = pid, w.to = to[1], w.from = from[0];
   };
 
-  while (finished < indices.size()) {
+  while (finished < indices.size() && !write_failed) {
     for (Worker& w : workers) {
       if (w.busy || todo.empty()) continue;
       if (w.pid > 0 && w.handed >= kTrialsPerWorker) retire(w, false);
@@ -735,8 +738,14 @@ int run_bench(const BenchCommand& cmd_in) {
       }
     }
   }
-  for (Worker& w : workers) retire(w, false);  // on the end of their input, workers exit
+  for (Worker& w : workers) retire(w, write_failed);  // on the end of their input, workers exit
   sigaction(SIGPIPE, &old_pipe, nullptr);
+  for (const auto& [p, bytes] : shared_rays)
+    if (p) munmap(p, bytes);
+  if (write_failed)
+    throw InputError(cmd.out +
+                     ": cannot be written (is the disk full?): the run stopped; the trials saved "
+                     "before it are kept, and --resume with the same --out goes on after them");
   const double elapsed = std::chrono::duration<double>(Clock::now() - t_start).count();
   if (tty) std::fprintf(stderr, "\n");
   if (!cmd.quiet)
@@ -745,8 +754,6 @@ int run_bench(const BenchCommand& cmd_in) {
                  indices.size(), duration_text(elapsed).c_str(),
                  elapsed / std::max<double>(1.0, static_cast<double>(indices.size())), ours_ok, passed,
                  cmd.out.c_str());
-  for (const auto& [p, bytes] : shared_rays)
-    if (p) munmap(p, bytes);
   return 0;
 }
 

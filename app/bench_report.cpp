@@ -218,7 +218,7 @@ json summarise(const std::map<uint64_t, json>& trials, uint64_t seed) {
 std::vector<std::array<std::string, 3>> plots(const std::map<uint64_t, json>& trials,
                                               const std::string& dir) {
   std::vector<double> ours, paper;
-  std::ofstream scatter(dir + "/bench_points.dat");
+  std::ostringstream scatter;
   for (const auto& [index, j] : trials) {
     const double yaw = j["draw"].value("yaw_deg", 0.0);
     // Clamp counts spread a little sideways (by index, so the picture is the same every time).
@@ -231,15 +231,16 @@ std::vector<std::array<std::string, 3>> plots(const std::map<uint64_t, json>& tr
     scatter << yaw << ' ' << clamps << ' ' << (o >= 0 ? std::max(o, 1e-3) : NAN) << ' '
             << (p >= 0 ? std::max(p, 1e-3) : NAN) << '\n';
   }
-  scatter.close();
+  write_text_file(dir + "/bench_points.dat", scatter.str());
   const double n = static_cast<double>(trials.size());
   for (auto* v : {&ours, &paper}) std::sort(v->begin(), v->end());
   {
-    std::ofstream cdf(dir + "/bench_cdf.dat");
+    std::ostringstream cdf;
     for (size_t k = 0; k < std::max(ours.size(), paper.size()); ++k) {
       cdf << (k < ours.size() ? ours[k] : NAN) << ' ' << static_cast<double>(k + 1) / n << ' '
           << (k < paper.size() ? paper[k] : NAN) << ' ' << static_cast<double>(k + 1) / n << '\n';
     }
+    write_text_file(dir + "/bench_cdf.dat", cdf.str());
   }
   std::ostringstream gp;
   gp << "set terminal pngcairo size 900,380 font 'DejaVu Sans,10'\nset grid\nset key outside right\n"
@@ -302,8 +303,9 @@ int run_bench_report(const BenchReportCommand& cmd) {
   std::filesystem::create_directories(cmd.out, ec);
   if (ec) throw input_error(cmd.out, "cannot create the output directory: " + ec.message());
   {
-    std::ofstream merged(cmd.out + "/results.jsonl");
-    for (const auto& [index, j] : trials) merged << j.dump() << '\n';
+    std::string merged;
+    for (const auto& [index, j] : trials) merged += j.dump() + '\n';
+    write_text_file(cmd.out + "/results.jsonl", merged);
   }
   const json s = summarise(trials, seed);
   write_json_file(cmd.out + "/summary.json", s);

@@ -5,6 +5,8 @@
 #include <fstream>
 #include <iterator>
 
+#include "app/json_file.hpp"
+
 namespace weldtwin::html {
 
 std::string escape(const std::string& s) {
@@ -74,7 +76,7 @@ std::string figure(const std::string& dir, const std::string& file, const std::s
 
 bool gnuplot(const std::string& dir, const std::string& script_name, const std::string& script) {
   const std::string path = dir + "/" + script_name;
-  std::ofstream(path) << script;
+  write_text_file(path, script);
   const std::string call = "gnuplot '" + path + "' 2>'" + path + ".log'";
   return std::system(call.c_str()) == 0;
 }

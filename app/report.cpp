@@ -6,7 +6,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <iterator>
 #include <sstream>
 
@@ -149,7 +148,7 @@ std::vector<Picture> plot_figures(const RunRecord& run, const std::string& dir) 
   const auto& s = run.plan->samples;
   const double hz = 1.0 / std::max(1e-9, s[1].t_s - s[0].t_s);
   {
-    std::ofstream dat(dir + "/plot_joints.dat");
+    std::ostringstream dat;
     for (size_t k = 1; k + 1 < s.size(); ++k) {
       dat << s[k].t_s;
       for (int j = 0; j < 6; ++j) dat << ' ' << rad2deg(s[k].q[j]);
@@ -157,16 +156,18 @@ std::vector<Picture> plot_figures(const RunRecord& run, const std::string& dir) 
       for (int j = 0; j < 6; ++j) dat << ' ' << (s[k + 1].q[j] - 2 * s[k].q[j] + s[k - 1].q[j]) * hz * hz;
       dat << '\n';
     }
+    write_text_file(dir + "/plot_joints.dat", dat.str());
   }
   bool have_replay = run.replay && !run.replay->samples.empty();
   if (have_replay) {
-    std::ofstream dat(dir + "/plot_seams.dat");
+    std::ostringstream dat;
     const auto& r = run.replay->samples;
     for (size_t k = 1; k < r.size(); ++k) {
       if (!r[k].arc || !r[k - 1].arc) continue;
       dat << r[k].t_s << ' ' << 1e3 * (r[k].tcp - r[k - 1].tcp).norm() / (r[k].t_s - r[k - 1].t_s) << ' '
           << 1e3 * r[k].seam_error_m << ' ' << 1e3 * r[k].clearance_m << '\n';
     }
+    write_text_file(dir + "/plot_seams.dat", dat.str());
   }
   std::ostringstream gp;
   gp << "set terminal pngcairo size 900,360 font 'DejaVu Sans,10'\nset grid\nset key outside right\n"

@@ -133,6 +133,23 @@ TEST(Bench, CrashingHangingAndThrowingTrialsAreRecordedAndTheRunGoesOn) {
   }
 }
 
+TEST(Bench, ResultsThatCannotBeWrittenStopTheRunNamingTheFile) {
+  // /dev/full takes the file open and refuses every byte: the run must stop with one line naming it and
+  // exit 2, not report trials it did not save. With --resume it must not read the device's endless zeros.
+  const fs::path d = temp_dir("full");
+  for (const char* resume : {"", " --resume"}) {
+    EXPECT_EQ(
+        weldtwin(std::string("bench --trials 4 --seed 3 --jobs 1 --no-paper --no-replay -q --out /dev/full") +
+                     resume,
+                 d / "err"),
+        2)
+        << resume;
+    const std::string err = slurp(d / "err");
+    EXPECT_NE(err.find("/dev/full: cannot be written"), std::string::npos) << err;
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+  }
+}
+
 // Hand-made lines with known figures: 10 trials of two parts, 9 within 1 mm.
 TEST(BenchReport, RatesIntervalsAndPercentilesAreRight) {
   const fs::path d = temp_dir("summary");
