@@ -5,7 +5,10 @@
 #include <cmath>
 #include <cstring>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <optional>
+#include <string>
 
 #include "perception/mesh_rays.hpp"
 
@@ -108,6 +111,75 @@ std::vector<Chunk> make_chunks(const mjModel* m, int geom, double spacing, doubl
   return chunks;
 }
 
+// The arm's surface as PartClearance tests it: each measured robot geom's chunks, in its geom frame. It
+// depends on the arm's geoms alone, which every layout of a cell (and every cell with the same robot) shares,
+// while sampling the vendor's meshes every 3 mm takes about as long as a plan: it is made once per distinct
+// arm and shared.
+struct RobotSurface {
+  struct GeomChunks {
+    int geom = 0;
+    double radius = 0.0;  ///< a sphere about the geom's origin holding all its chunks
+    size_t first = 0, end = 0;
+  };
+  std::vector<Chunk> chunks;
+  std::vector<GeomChunks> geoms;
+};
+
+// What the surface is made from, byte for byte: the measured robot geoms' ids, types and sizes, and their
+// meshes' vertices and faces.
+std::string robot_surface_key(const MujocoWorld& world) {
+  const mjModel* m = world.model();
+  std::string key;
+  const auto add = [&key](const void* p, size_t bytes) { key.append(static_cast<const char*>(p), bytes); };
+  for (int g = 0; g < m->ngeom; ++g) {
+    if (world.geom_label(g) != Label::kRobot || !measured_for_clearance(m, g)) continue;
+    add(&g, sizeof g);
+    add(m->geom_type + g, sizeof(int));
+    add(m->geom_size + 3 * g, 3 * sizeof(mjtNum));
+    if (m->geom_type[g] == mjGEOM_MESH) {
+      const int mesh = m->geom_dataid[g];
+      add(m->mesh_vert + 3 * m->mesh_vertadr[mesh],
+          3 * sizeof(float) * static_cast<size_t>(m->mesh_vertnum[mesh]));
+      add(m->mesh_face + 3 * m->mesh_faceadr[mesh],
+          3 * sizeof(int) * static_cast<size_t>(m->mesh_facenum[mesh]));
+    }
+  }
+  return key;
+}
+
+std::shared_ptr<const RobotSurface> make_robot_surface(const MujocoWorld& world) {
+  auto surface = std::make_shared<RobotSurface>();
+  const mjModel* m = world.model();
+  for (int g = 0; g < m->ngeom; ++g)
+    if (world.geom_label(g) == Label::kRobot && measured_for_clearance(m, g)) {
+      std::vector<Chunk> c = make_chunks(m, g, 0.003, 0.03);
+      RobotSurface::GeomChunks gc;
+      gc.geom = g;
+      gc.first = surface->chunks.size();
+      gc.end = gc.first + c.size();
+      for (const Chunk& k : c) gc.radius = std::max(gc.radius, k.center.norm() + k.radius);
+      surface->geoms.push_back(gc);
+      surface->chunks.insert(surface->chunks.end(), std::make_move_iterator(c.begin()),
+                             std::make_move_iterator(c.end()));
+    }
+  return surface;
+}
+
+// The surface of this world's arm: made the first time, then the same one for every world whose measured arm
+// geoms are the same to the byte (the last few arms are kept).
+std::shared_ptr<const RobotSurface> robot_surface(const MujocoWorld& world) {
+  static std::mutex mutex;
+  static std::vector<std::pair<std::string, std::shared_ptr<const RobotSurface>>> made;
+  constexpr size_t kArmsKept = 4;
+  std::string key = robot_surface_key(world);
+  std::lock_guard<std::mutex> lock(mutex);
+  for (const auto& [k, surface] : made)
+    if (k == key) return surface;
+  if (made.size() >= kArmsKept) made.erase(made.begin());
+  made.emplace_back(std::move(key), make_robot_surface(world));
+  return made.back().second;
+}
+
 Vec3 geom_to_base(const mjData* d, int g, const Vec3& p) {
   const double* x = d->geom_xpos + 3 * g;
   const double* R = d->geom_xmat + 9 * g;
@@ -126,15 +198,9 @@ std::string geom_name(const mjModel* m, int g) {
 struct PartClearance::Impl {
   const MujocoWorld* world = nullptr;
   std::unique_ptr<MeshRays> rays;
-  std::vector<Chunk> chunks;
-  // Each robot geom's chunks, and a sphere about its frame's origin holding them all: a geom whose sphere
+  // The arm's chunks, and per geom a sphere about its frame's origin holding them all: a geom whose sphere
   // is farther from the part than the nearest point found so far is passed over with one query.
-  struct GeomChunks {
-    int geom = 0;
-    double radius = 0.0;
-    size_t first = 0, end = 0;
-  };
-  std::vector<GeomChunks> geoms;
+  std::shared_ptr<const RobotSurface> surface;
   double range = 0.05;
   Iso3 T_base_mesh_part = Iso3::Identity();  ///< where the part stood when the mesh was put in the base frame
   std::optional<Iso3> T_mesh_base;           ///< set when the part was moved since (set_part_pose)
@@ -152,19 +218,13 @@ PartClearance::PartClearance(const MujocoWorld& world, const Mesh& part_mesh, co
   for (const Vec3& v : mesh_base.vertices) impl_->box.extend(v);
   impl_->range = range_m;
   impl_->T_base_mesh_part = T_base_part;
-  const mjModel* m = world.model();
-  for (int g = 0; g < m->ngeom; ++g)
-    if (world.geom_label(g) == Label::kRobot && measured_for_clearance(m, g)) {
-      std::vector<Chunk> c = make_chunks(m, g, 0.003, 0.03);
-      Impl::GeomChunks gc;
-      gc.geom = g;
-      gc.first = impl_->chunks.size();
-      gc.end = gc.first + c.size();
-      for (const Chunk& k : c) gc.radius = std::max(gc.radius, k.center.norm() + k.radius);
-      impl_->geoms.push_back(gc);
-      impl_->chunks.insert(impl_->chunks.end(), std::make_move_iterator(c.begin()),
-                           std::make_move_iterator(c.end()));
-    }
+  impl_->surface = robot_surface(world);
+}
+
+size_t PartClearance::surface_points() const {
+  size_t n = 0;
+  for (const Chunk& c : impl_->surface->chunks) n += c.points.size();
+  return n;
 }
 
 void PartClearance::set_part_pose(const Iso3& T_base_part) {
@@ -187,25 +247,25 @@ double PartClearance::clearance(const mjData* d, std::string* geom, Hint* hint) 
     const double dp = rays.distance(pb, best);
     if (dp < best) {
       best = dp;
-      best_geom = impl_->chunks[chunk].geom;
+      best_geom = impl_->surface->chunks[chunk].geom;
       best_point = pb;
       best_chunk = chunk, best_index = i;
     }
   };
   // The nearest point of the last state first: the search then starts with a tight bound.
-  if (hint && hint->chunk >= 0 && static_cast<size_t>(hint->chunk) < impl_->chunks.size()) {
-    const Chunk& c = impl_->chunks[static_cast<size_t>(hint->chunk)];
+  if (hint && hint->chunk >= 0 && static_cast<size_t>(hint->chunk) < impl_->surface->chunks.size()) {
+    const Chunk& c = impl_->surface->chunks[static_cast<size_t>(hint->chunk)];
     if (static_cast<size_t>(hint->point) < c.points.size())
       consider(static_cast<size_t>(hint->chunk), static_cast<size_t>(hint->point),
                geom_to_base(d, c.geom, c.points[static_cast<size_t>(hint->point)]));
   }
-  for (const Impl::GeomChunks& g : impl_->geoms) {
+  for (const RobotSurface::GeomChunks& g : impl_->surface->geoms) {
     const Vec3 origin = geom_to_base(d, g.geom, Vec3::Zero());
     if (impl_->box.exteriorDistance(origin) - g.radius >= best) continue;
     const double dg = rays.distance(origin, best + g.radius);
     if (!std::isfinite(dg) || dg - g.radius >= best) continue;
     for (size_t k = g.first; k < g.end; ++k) {
-      const Chunk& c = impl_->chunks[k];
+      const Chunk& c = impl_->surface->chunks[k];
       const Vec3 center = geom_to_base(d, c.geom, c.center);
       if (impl_->box.exteriorDistance(center) - c.radius >= best) continue;
       const double dc = rays.distance(center, best + c.radius);

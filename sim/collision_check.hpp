@@ -28,6 +28,9 @@ class PartClearance {
   double clearance(const mjData* d, std::string* geom = nullptr, Hint* hint = nullptr) const;
   /// The part now stands at T_base_part (the mesh stays as built; queries are moved). Copies share it.
   void set_part_pose(const Iso3& T_base_part);
+  /// How many points of the arm's surface it tests (3 mm apart over every measured robot geom). They depend
+  /// on the arm alone: made once per distinct arm in a process and shared by every PartClearance of it.
+  size_t surface_points() const;
 
  private:
   struct Impl;

@@ -129,6 +129,37 @@ TEST(PartClearance, StartingFromTheLastNearestPointChangesNoAnswer) {
   EXPECT_GT(near, plan.samples.size() / 10);  // the torch near the part: the hint was in play
 }
 
+TEST(PartClearance, EachArmsSurfaceIsMadeOnceAndNeverTakenForAnothers) {
+  // The straight torch's arm first, then the swan neck's in two layouts, then the straight one again: each
+  // clearance must be its own arm's (a surface shared by mistake answers with the other torch's points).
+  const test::Cell straight("scenes/cells/default.yaml", 5, "scenes/robots/aubo_i5_cell.yaml");
+  const test::Cell bent("scenes/cells/default.yaml", 5), bent_other_layout("scenes/cells/default.yaml", 9);
+  const Mesh mesh = load_mesh(bent.part.mesh_path);
+  const Iso3& T = bent.layout.T_base_part;
+  const PartClearance a(*straight.world, mesh, T, 0.05), b(*bent.world, mesh, T, 0.05),
+      b2(*bent_other_layout.world, mesh, T, 0.05), a2(*straight.world, mesh, T, 0.05);
+  EXPECT_NE(a.surface_points(), b.surface_points());
+  EXPECT_EQ(b.surface_points(), b2.surface_points());
+  EXPECT_EQ(a.surface_points(), a2.surface_points());
+  // At the swan neck's weld configurations the arms stand differently close to the part; each answer equals
+  // the same arm's in the other layout (the part stands where it stood), never the other arm's.
+  const WeldPlan plan = plan_at_true_pose(bent);
+  ASSERT_TRUE(plan.ok()) << plan.problems.front();
+  DataPtr ds(mj_makeData(straight.world->model())), db(mj_makeData(bent.world->model())),
+      db2(mj_makeData(bent_other_layout.world->model()));
+  size_t differ = 0;
+  for (size_t k = 0; k < plan.samples.size(); k += 50) {
+    const JointVector& q = plan.samples[k].q;
+    straight.world->set_joints(ds.get(), q);
+    bent.world->set_joints(db.get(), q);
+    bent_other_layout.world->set_joints(db2.get(), q);
+    ASSERT_EQ(b.clearance(db.get()), b2.clearance(db2.get())) << "sample " << k;
+    ASSERT_EQ(a.clearance(ds.get()), a2.clearance(ds.get())) << "sample " << k;
+    differ += std::abs(a.clearance(ds.get()) - b.clearance(db.get())) > 1e-4;
+  }
+  EXPECT_GT(differ, 0u);
+}
+
 TEST(Replay, APlanFromAPoseTwoMillimetresOffMissesTheSeamsByThatMuch) {
   const test::Cell cell;
   const Mesh mesh = load_mesh(cell.part.mesh_path);
