@@ -113,9 +113,9 @@ class Builder {
   // The collision that ruled out the best candidate since the last call, for a message ("" if none did).
   std::string main_collision() const;
 
-  // The collision, if any, of the samples from index `from` on (every other one: 10 ms apart). Every one,
-  // as the replay watches them, would catch two links grazing for one sample of a fast transit (1 trial in
-  // 900 of the whole-table benchmark) at twice the planning time (median 0.19 -> 0.45 s over 100 trials).
+  // The collision, if any, of the samples from index `from` on: asked so that no joint turns more than
+  // `PlanSetting::transit_check_rad` between two samples asked in a row (where it turns faster, every
+  // sample, as the replay watches them), and where the arc goes on or off.
   std::string collision_since(size_t from) const;
 
   // A transit to `to` (an approach's first pose, or home) that does not hit the cell: straight in joint

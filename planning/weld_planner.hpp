@@ -43,9 +43,15 @@ struct PlanSetting {
   std::function<std::string(const JointVector& q, bool welding)> collision;
   double transit_lift_m = 0.15;  ///< how far a lifted transit backs off along the torch axis at both ends
   /// Configurations are asked of `collision` at most this far apart (the largest joint change) along a weld
-  /// between its stations and along paths found in joint space (transits: every other sample): a round seam's
-  /// stations are 12 mm apart on the part while the torch swings tens of millimetres round it between them.
+  /// between its stations and along paths found in joint space (transits: `transit_check_rad`): a round
+  /// seam's stations are 12 mm apart on the part while the torch swings tens of millimetres round it between
+  /// them.
   double collision_step_rad = 0.02;
+  /// Samples of the transits (and of a lifted transit's lines) are asked of `collision` no more than this far
+  /// apart (the largest joint change; where the arm turns faster, every 200 Hz sample): two links that graze
+  /// for a single sample of a fast transit are seen, and the slow ends of the moves are not asked sample by
+  /// sample.
+  double transit_check_rad = 0.01;
   /// When a seam cannot be welded as its spec says, try the other ways it allows: the edges of its work and
   /// travel angle windows, and (a free roll) the other direction; a way whose transit, approach or departure
   /// is blocked is taken back and the seam tried from its other end, and then the seams still to weld are

@@ -5,7 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <map>
+#include <set>
 
 #include "planning/lspb.hpp"
 #include "planning/torch_frame.hpp"
@@ -426,6 +428,53 @@ TEST(WeldPlanner, ChecksWhatTheArmPassesThroughBetweenStations) {
     EXPECT_FALSE(inside(s.T_base_tcp)) << "t = " << s.t_s << " s";
   }
   EXPECT_GT(welded, 1000);
+}
+
+TEST(WeldPlanner, AsksTheTransitsNoMoreThanTheirCheckStepApart) {
+  // Every configuration the planner asks is recorded; along each transit of the plan, two samples asked in a
+  // row must be neighbours or within PlanSetting::transit_check_rad in every joint (asking every other
+  // sample leaves 13-16 mrad between them where the arm runs fast), and the transit's ends are asked.
+  const CellSpec cell = CellSpec::load(test::repo("scenes/cells/default.yaml"));
+  const RobotModel robot = load_cell_robot(cell);
+  const PartSpec part = PartSpec::load(cell.part_spec);
+  const Iso3 T = make_layout(cell, part, std::nullopt).T_base_part;
+  std::set<std::array<double, 6>> asked;
+  PlanSetting setting;
+  setting.collision = [&](const JointVector& q, bool) -> std::string {
+    asked.insert({q[0], q[1], q[2], q[3], q[4], q[5]});
+    return "";
+  };
+  const WeldPlan plan = plan_welds(part, T, robot, setting);
+  ASSERT_TRUE(plan.ok()) << plan.problems.front();
+  const auto was_asked = [&](const JointVector& q) {
+    return asked.count({q[0], q[1], q[2], q[3], q[4], q[5]}) > 0;
+  };
+  size_t transits = 0, fast = 0;
+  const std::vector<PlanSample>& s = plan.samples;
+  for (size_t k = 0; k < s.size();) {
+    if (s[k].phase != Phase::kTransit) {
+      ++k;
+      continue;
+    }
+    size_t end = k;
+    while (end + 1 < s.size() && s[end + 1].phase == Phase::kTransit) ++end;
+    ++transits;
+    EXPECT_TRUE(was_asked(s[k].q) && was_asked(s[end].q)) << "transit at t = " << s[k].t_s << " s";
+    size_t last = k;
+    for (size_t i = k + 1; i <= end; ++i) {
+      fast += (s[i].q - s[i - 1].q).cwiseAbs().maxCoeff() > 0.5 * setting.transit_check_rad;
+      if (!was_asked(s[i].q)) continue;
+      if (i > last + 1) {
+        EXPECT_LE((s[i].q - s[last].q).cwiseAbs().maxCoeff(), setting.transit_check_rad + 1e-12)
+            << "samples " << last << " and " << i << " asked in a row";
+      }
+      last = i;
+    }
+    k = end + 1;
+  }
+  EXPECT_GE(transits, 3u);
+  EXPECT_GT(fast, 100u);  // where every other sample would leave more than the step between two asked
+  EXPECT_LT(asked.size(), s.size() / 2);  // and the slow parts are not asked sample by sample
 }
 
 TEST(Seam, ReversedRunsTheSamePointsBackwards) {
