@@ -18,7 +18,7 @@ double Builder::margin(const IkSolution& s) const {
 }
 
 Choice Builder::choose(const SeamGeometry& g, double s0, double s1, std::optional<double> fixed_roll,
-                       int prefer_branch, bool any_will_do) const {
+                       int prefer_branch) const {
   std::vector<double> rolls;
   if (fixed_roll) {
     rolls.push_back(*fixed_roll);
@@ -26,13 +26,21 @@ Choice Builder::choose(const SeamGeometry& g, double s0, double s1, std::optiona
     for (double r = -kPi; r < kPi - 1e-9; r += set_.roll_step_rad) rolls.push_back(r);
   }
   const int stations = std::max(6, static_cast<int>((s1 - s0) / kStationSpacing_m));
-  Choice best;
+  // Every roll and branch that reaches the stretch within the margins, with its margin (the preferred
+  // branch's raised): found by IK alone, before the cell is asked anything.
+  struct Candidate {
+    double roll = 0.0;
+    int branch = -1;
+    double margin = -1.0;
+    JointVector first, last;                               ///< at the approach pose; at the last station
+    std::vector<std::pair<JointVector, bool>> stations_q;  ///< for the collision test
+  };
+  std::vector<Candidate> candidates;
   for (double roll : rolls) {
     std::array<double, 8> worst;
     worst.fill(std::numeric_limits<double>::infinity());
     std::array<JointVector, 8> last, first;
-    std::array<std::vector<std::pair<JointVector, bool>>, 8>
-        stations_q;  // for the collision test of a winner
+    std::array<std::vector<std::pair<JointVector, bool>>, 8> stations_q;
     // Stations along the stretch, plus its approach (k = -1) and departure (k = stations + 1) poses.
     for (int k = -1; k <= stations + 1; ++k) {
       const Iso3 pose = k < 0          ? backed_off(g.tcp(s0, roll), set_.approach_m)
@@ -51,40 +59,45 @@ Choice Builder::choose(const SeamGeometry& g, double s0, double s1, std::optiona
           stations_q[static_cast<size_t>(b)].emplace_back(s.q, true);
         if (k < 0) first[static_cast<size_t>(b)] = s.q;
       }
-      // Stop on this roll once no branch can still win.
-      if (std::all_of(worst.begin(), worst.end(),
-                      [&](double m) { return m < 0.0 || m + 0.05 <= best.margin; }))
-        break;
+      // Stop on this roll once no branch reaches.
+      if (std::all_of(worst.begin(), worst.end(), [](double m) { return m < 0.0; })) break;
     }
     for (int b = 0; b < 8; ++b) {
-      const double m = worst[static_cast<size_t>(b)] + (b == prefer_branch ? 0.05 : 0.0);
-      if (worst[static_cast<size_t>(b)] < 0 || m <= best.margin) continue;
-      const auto rejected = [&] {  // the best candidate a collision ruled out names the problem
-        if (m > rejected_margin_) {
-          rejected_margin_ = m;
-          rejected_hit_ = last_hit_;
-        }
-      };
-      // The stations, the ways in and out, then (the most configurations) what lies between the stations.
-      if (collides(stations_q[static_cast<size_t>(b)])) {
-        rejected();
-        continue;
-      }
-      const auto in = clear_way(g.tcp(s0, roll), b, first[static_cast<size_t>(b)]);
-      const auto out = in ? clear_way(g.tcp(s1, roll), b, last[static_cast<size_t>(b)]) : std::nullopt;
-      if (!in || !out) {
-        if (!last_hit_.empty()) rejected();
-        continue;
-      }
-      if (!clear_along(g, s0, s1, roll, b, first[static_cast<size_t>(b)])) {
-        rejected();
-        continue;
-      }
-      best = {true, roll, b, m, in->second, in->first, out->first};
+      if (worst[static_cast<size_t>(b)] < 0) continue;
+      candidates.push_back({roll, b, worst[static_cast<size_t>(b)] + (b == prefer_branch ? 0.05 : 0.0),
+                            first[static_cast<size_t>(b)], last[static_cast<size_t>(b)],
+                            std::move(stations_q[static_cast<size_t>(b)])});
     }
-    if (any_will_do && best.ok) return best;  // feasibility is all the caller asks
   }
-  return best;
+  // The cell is asked best first: the first candidate clear of it is the one with the largest margin among
+  // the clear ones (equal margins in the order found), and no candidate below it is asked about at all.
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const Candidate& a, const Candidate& b) { return a.margin > b.margin; });
+  for (const Candidate& c : candidates) {
+    const auto rejected = [&] {  // the best candidate a collision ruled out names the problem
+      if (c.margin > rejected_margin_) {
+        rejected_margin_ = c.margin;
+        rejected_hit_ = last_hit_;
+      }
+    };
+    // The stations, the ways in and out, then (the most configurations) what lies between the stations.
+    if (collides(c.stations_q)) {
+      rejected();
+      continue;
+    }
+    const auto in = clear_way(g.tcp(s0, c.roll), c.branch, c.first);
+    const auto out = in ? clear_way(g.tcp(s1, c.roll), c.branch, c.last) : std::nullopt;
+    if (!in || !out) {
+      if (!last_hit_.empty()) rejected();
+      continue;
+    }
+    if (!clear_along(g, s0, s1, c.roll, c.branch, c.first)) {
+      rejected();
+      continue;
+    }
+    return {true, c.roll, c.branch, c.margin, in->second, in->first, out->first};
+  }
+  return Choice();
 }
 
 bool Builder::clear_along(const SeamGeometry& g, double s0, double s1, double roll, int b,

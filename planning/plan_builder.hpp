@@ -74,10 +74,12 @@ class Builder {
   // negative when too close to any of them.
   double margin(const IkSolution& s) const;
 
-  // Best roll and branch for the stretch [s0, s1] of a seam, including its approach pose. A fixed roll is
-  // the only candidate; `prefer_branch` wins ties (a corner can then be welded through).
+  // Best roll and branch for the stretch [s0, s1] of a seam, including its approach pose: of those the arm
+  // reaches within the margins (IK alone), the one with the largest margin whose stations, ways in and out
+  // and what lies between the stations are clear of the cell, the cell asked best first. A fixed roll is the
+  // only candidate; `prefer_branch` wins ties (a corner can then be welded through).
   Choice choose(const SeamGeometry& g, double s0, double s1, std::optional<double> fixed_roll,
-                int prefer_branch, bool any_will_do = false) const;
+                int prefer_branch) const;
 
   // Whether what the arm passes through welding the stretch [s0, s1] on branch `b` at `roll` is clear of the
   // cell: poses of the seam (IK, not joint-space interpolation: round a tube the wrist swings a quarter

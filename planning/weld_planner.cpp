@@ -82,26 +82,26 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
       double s0 = 0.0;
       while (s0 < g.length - 1e-9) {
         // Only feasibility is asked (stations only): the first roll and branch that works will do.
-        Choice c = b.choose(g, s0, g.length, seam.torch_roll_rad, branch, setting.stations_only);
+        Choice c = b.choose(g, s0, g.length, seam.torch_roll_rad, branch);
         double s1 = g.length;
         if (!c.ok && seam.kind == Seam::Kind::kArc && !seam.torch_roll_rad) {
           // The longest stretch from s0 that some roll can weld, by bisection on its end.
           double lo = s0, hi = g.length;
           for (int it = 0; it < 7; ++it) {
             const double mid = 0.5 * (lo + hi);
-            if (b.choose(g, s0, mid, seam.torch_roll_rad, branch, true).ok) {
+            if (b.choose(g, s0, mid, seam.torch_roll_rad, branch).ok) {
               lo = mid;
             } else {
               hi = mid;
             }
           }
           s1 = lo;
-          c = b.choose(g, s0, s1, seam.torch_roll_rad, branch, setting.stations_only);
+          c = b.choose(g, s0, s1, seam.torch_roll_rad, branch);
           // Leave no stub too short to blend at the weld speed: end this piece earlier instead.
           constexpr double kMinPiece = 0.025;
           if (g.length - s1 < kMinPiece && g.length - kMinPiece - s0 >= 0.01) {
             s1 = g.length - kMinPiece;
-            c = b.choose(g, s0, s1, seam.torch_roll_rad, branch, setting.stations_only);
+            c = b.choose(g, s0, s1, seam.torch_roll_rad, branch);
           }
           if (s1 - s0 < 0.01) c.ok = false;
         }
@@ -124,8 +124,8 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
         for (size_t k = 0; k < n; ++k) {
           const double a = g.length * static_cast<double>(k) / static_cast<double>(n);
           const double e = g.length * static_cast<double>(k + 1) / static_cast<double>(n);
-          if (!b.choose(g, a, e, seam.torch_roll_rad, branch, true).ok) break;
           const Choice c = b.choose(g, a, e, seam.torch_roll_rad, branch);
+          if (!c.ok) break;
           equal.emplace_back(a, e);
           equal_choices.push_back(c);
         }

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <map>
 #include <set>
@@ -428,6 +429,49 @@ TEST(WeldPlanner, ChecksWhatTheArmPassesThroughBetweenStations) {
     EXPECT_FALSE(inside(s.T_base_tcp)) << "t = " << s.t_s << " s";
   }
   EXPECT_GT(welded, 1000);
+}
+
+TEST(WeldPlanner, AsksTheCellAboutTheBestRollFirstAndNoOtherWhenItIsClear) {
+  // With nothing in the way, the roll and branch with the largest margin is clear, so the cell is asked only
+  // about the chosen way of each seam: every welding configuration asked has the torch turned as the plan
+  // welds there. Asking rolls in their order instead asks about every roll that beat the ones before it.
+  const CellSpec cell = CellSpec::load(test::repo("scenes/cells/default.yaml"));
+  const RobotModel robot = load_cell_robot(cell);
+  const PartSpec part = PartSpec::load(cell.part_spec);
+  const Iso3 T = make_layout(cell, part, std::nullopt).T_base_part;
+  const int tcp = robot.require_link("tcp");
+  std::vector<Iso3> asked;
+  PlanSetting setting;
+  setting.collision = [&](const JointVector& q, bool welding) -> std::string {
+    if (welding) asked.push_back(robot.forward_kinematics(q, tcp));
+    return "";
+  };
+  const WeldPlan plan = plan_welds(part, T, robot, setting);
+  ASSERT_TRUE(plan.ok()) << plan.problems.front();
+  std::vector<const PlanSample*> welding;
+  for (const PlanSample& s : plan.samples)
+    if (s.arc) welding.push_back(&s);
+  ASSERT_FALSE(welding.empty());
+  ASSERT_GT(asked.size(), 20u);
+  double worst_deg = 0.0;
+  for (const Iso3& a : asked) {
+    // The torch's own x axis (its roll about the torch axis) against the plan's at its weld samples within
+    // 2 mm (at a corner, both seams'), the nearest sample's if none is that close.
+    double best_deg = 180.0, nearest = 1e9;
+    const PlanSample* near = welding.front();
+    for (const PlanSample* s : welding) {
+      const double d = (s->T_base_tcp.translation() - a.translation()).norm();
+      if (d < nearest) nearest = d, near = s;
+      if (d > 0.002) continue;
+      const double c = std::clamp(a.linear().col(0).dot(s->T_base_tcp.linear().col(0)), -1.0, 1.0);
+      best_deg = std::min(best_deg, rad2deg(std::acos(c)));
+    }
+    if (nearest > 0.002)
+      best_deg =
+          rad2deg(std::acos(std::clamp(a.linear().col(0).dot(near->T_base_tcp.linear().col(0)), -1.0, 1.0)));
+    worst_deg = std::max(worst_deg, best_deg);
+  }
+  EXPECT_LT(worst_deg, 5.0) << "a roll the plan does not weld with was asked about";
 }
 
 TEST(WeldPlanner, AsksTheTransitsNoMoreThanTheirCheckStepApart) {
