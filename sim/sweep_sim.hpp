@@ -55,7 +55,9 @@ struct SweepResult {
 };
 
 /// Runs the sweep. The geometry a sample sees is posed at the start of the sample's slice
-/// (SweepOptions::slice_s); the sensor itself at the sample's time (SweepOptions::sensor_knot_samples).
+/// (SweepOptions::slice_s); the sensor itself at the sample's time (SweepOptions::sensor_knot_samples). Both
+/// through the forward kinematics of the robot `world` was composed with (MujocoWorld::robot(): its LiDAR
+/// mount is where the twin really has it); `robot` gives the log its robot and joint names.
 SweepResult simulate_sweep(const MujocoWorld& world, const RobotModel& robot, const SweepProgram& program,
                            const LidarSetting& lidar, const SweepOptions& options = {});
 
