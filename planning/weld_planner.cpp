@@ -81,7 +81,6 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
       choices.clear();
       double s0 = 0.0;
       while (s0 < g.length - 1e-9) {
-        // Only feasibility is asked (stations only): the first roll and branch that works will do.
         Choice c = b.choose(g, s0, g.length, seam.torch_roll_rad, branch);
         double s1 = g.length;
         if (!c.ok && seam.kind == Seam::Kind::kArc && !seam.torch_roll_rad) {
