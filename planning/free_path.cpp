@@ -14,10 +14,10 @@ namespace weldtwin {
 std::vector<JointVector> free_joint_path(const JointVector& a, const JointVector& b, const JointVector& lower,
                                          const JointVector& upper,
                                          const std::function<bool(const JointVector&)>& is_free,
-                                         double resolution_rad, double max_seconds) {
+                                         double resolution_rad, long max_questions) {
   namespace ob = ompl::base;
   namespace og = ompl::geometric;
-  // An end in collision has no path: answered at once, not after max_seconds of sampling.
+  // An end in collision has no path: answered at once, not after the whole budget of sampling.
   if (!is_free(a) || !is_free(b)) return {};
   // OMPL seeds every sampler it makes from one process-wide sequence: it starts over at every call (OMPL
   // complains when it is restarted; quiet), so that the same question gets the same answer whatever was asked
@@ -44,7 +44,11 @@ std::vector<JointVector> free_joint_path(const JointVector& a, const JointVector
     for (int j = 0; j < n; ++j) q[j] = v->values[j];
     return q;
   };
-  setup.setStateValidityChecker([&](const ob::State* s) { return is_free(to_q(s)); });
+  long questions = 0;
+  setup.setStateValidityChecker([&](const ob::State* s) {
+    ++questions;
+    return is_free(to_q(s));
+  });
   // OMPL checks motions at a fraction of the space's extent: `resolution_rad` of joint travel.
   setup.getSpaceInformation()->setStateValidityCheckingResolution(resolution_rad / space->getMaximumExtent());
   ob::ScopedState<> start(space), goal(space);
@@ -55,8 +59,10 @@ std::vector<JointVector> free_joint_path(const JointVector& a, const JointVector
   setup.setStartAndGoalStates(start, goal);
   setup.setPlanner(std::make_shared<og::RRTConnect>(setup.getSpaceInformation()));
   setup.setup();
+  // Given up after a number of questions, not of seconds: with a time limit the same question found a way on
+  // a fast machine and none on a slow one (or a loaded one), and plans differed between machines.
   const ob::PlannerTerminationCondition stop = ob::plannerOrTerminationCondition(
-      ob::timedPlannerTerminationCondition(max_seconds),
+      ob::PlannerTerminationCondition([&] { return questions >= max_questions; }),
       ob::exactSolnPlannerTerminationCondition(setup.getProblemDefinition()));
   if (setup.solve(stop) != ob::PlannerStatus::EXACT_SOLUTION) return {};
   setup.simplifySolution();

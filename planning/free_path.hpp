@@ -11,13 +11,14 @@
 namespace weldtwin {
 
 /// Waypoints from `a` to `b` (both included) whose straight joint-space segments are free according to
-/// `is_free`, checked every `resolution_rad`; empty when none is found within `max_seconds`, and at once
-/// when `a` or `b` is not free. Each joint is searched within `lower`..`upper` and no more than half a turn
-/// beyond the two ends.
+/// `is_free`, checked every `resolution_rad`; empty when none is found within `max_questions` calls of
+/// `is_free` (a budget of questions, not of seconds: the answer does not depend on how fast the machine is),
+/// and at once when `a` or `b` is not free. Each joint is searched within `lower`..`upper` and no more than
+/// half a turn beyond the two ends.
 std::vector<JointVector> free_joint_path(const JointVector& a, const JointVector& b, const JointVector& lower,
                                          const JointVector& upper,
                                          const std::function<bool(const JointVector&)>& is_free,
-                                         double resolution_rad = 0.02, double max_seconds = 5.0);
+                                         double resolution_rad = 0.02, long max_questions = 100000);
 
 /// Whether this build searches joint space at all (false: built without OMPL, free_joint_path finds nothing).
 bool joint_space_search_available();

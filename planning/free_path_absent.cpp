@@ -5,7 +5,7 @@ namespace weldtwin {
 
 std::vector<JointVector> free_joint_path(const JointVector&, const JointVector&, const JointVector&,
                                          const JointVector&, const std::function<bool(const JointVector&)>&,
-                                         double, double) {
+                                         double, long) {
   return {};
 }
 

@@ -251,9 +251,12 @@ Builder::Ran Builder::transit(const JointVector& to, const std::string& what) {
   const std::vector<JointVector> path = free_joint_path(
       q_, to, robot_.lower(), robot_.upper(),
       [&](const JointVector& q) { return set_.collision(q, false).empty(); }, set_.collision_step_rad);
+  // Its segments were asked `collision_step_rad` apart along the straight joint-space line; the timed samples
+  // are asked as every transit's are (no more than `transit_check_rad` apart): a segment that grazed an
+  // obstacle between two of the search's questions is not taken.
   if (!path.empty()) {
     for (size_t k = 1; k < path.size(); ++k) joint_move(path[k]);
-    if ((q_ - to).cwiseAbs().maxCoeff() < 1e-9) return Ran::kOk;
+    if ((q_ - to).cwiseAbs().maxCoeff() < 1e-9 && collision_since(start.samples).empty()) return Ran::kOk;
     rewind(start);
   }
   problem(what + ": collides with " + hit +

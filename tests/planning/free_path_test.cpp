@@ -59,5 +59,29 @@ TEST(FreePath, AnEndInCollisionHasNoPathAndIsAnsweredWithoutSampling) {
   }
 }
 
+// Where no path exists, the search gives up after its budget of questions, not of seconds: the same question
+// is answered the same on a fast machine and a slow one. (A time limit made a planner test pass on one
+// machine and fail on a faster one, where the search found, within the limit, a way it did not find on the
+// other.)
+TEST(FreePath, GivesUpAfterItsBudgetOfQuestions) {
+  const JointVector lower = JointVector::Constant(-3.0), upper = JointVector::Constant(3.0);
+  // b is shut in a box of joint space: every way to it crosses the box's wall.
+  const JointVector a = joints(-1.0, 0.0, 0.0), b = joints(1.0, 0.0, 0.0);
+  const auto boxed = [&](const JointVector& q) {
+    const double r = (q - b).cwiseAbs().maxCoeff();
+    return !(r > 0.2 && r < 0.5);
+  };
+  for (const long budget : {2000L, 20000L}) {
+    long checks = 0;
+    const auto counted = [&](const JointVector& q) {
+      ++checks;
+      return boxed(q);
+    };
+    EXPECT_TRUE(free_joint_path(a, b, lower, upper, counted, 0.02, budget).empty());
+    EXPECT_GE(checks, budget) << "gave up before its budget";
+    EXPECT_LE(checks, budget + budget / 10 + 200) << "went on past its budget";
+  }
+}
+
 }  // namespace
 }  // namespace weldtwin
