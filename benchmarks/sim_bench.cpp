@@ -12,6 +12,7 @@
 #include "planning/weld_planner.hpp"
 #include "sim/collision_check.hpp"
 #include "sim/contact_prefilter.hpp"
+#include "sim/contact_screen.hpp"
 #include "sim/embree_scene.hpp"
 #include "sim/sweep_sim.hpp"
 
@@ -137,6 +138,20 @@ BENCHMARK(BM_LidarPose)->Arg(0)->Arg(1);
 // clamps and clutter) at the states of its weld plan: its convex collider for every pair whose bounding
 // spheres meet (0) against the exact early-out in front of it (1). Each state's kinematics included; the part
 // left out, as the replay leaves it out.
+// The states of the default cell's weld plan (at the part's true pose), as the replay steps through them.
+const std::vector<JointVector>& default_plan_states() {
+  static const std::vector<JointVector> qs = [] {
+    DefaultCell& c = cell();
+    PlanSetting setting;
+    setting.collision = CollisionChecker(c.world);
+    const WeldPlan plan = plan_welds(c.part, c.layout.T_base_part, c.robot, setting);
+    std::vector<JointVector> out;
+    for (const PlanSample& p : plan.samples) out.push_back(p.q);
+    return out;
+  }();
+  return qs;
+}
+
 void BM_CellContacts(benchmark::State& state) {
   DefaultCell& c = cell();
   // As the replay has it: the part out of MuJoCo's contacts (its exact mesh is checked apart).
@@ -145,15 +160,7 @@ void BM_CellContacts(benchmark::State& state) {
   for (int g = 0; g < m->ngeom; ++g)
     if (c.world.geom_label(g) == Label::kPart) m->geom_contype[g] = m->geom_conaffinity[g] = 0;
   DataPtr d(mj_makeData(m));
-  // The states of the default cell's weld plan (at the part's true pose), as the replay steps through them.
-  static const std::vector<JointVector> qs = [&] {
-    PlanSetting setting;
-    setting.collision = CollisionChecker(c.world);
-    const WeldPlan plan = plan_welds(c.part, c.layout.T_base_part, c.robot, setting);
-    std::vector<JointVector> out;
-    for (const PlanSample& p : plan.samples) out.push_back(p.q);
-    return out;
-  }();
+  const std::vector<JointVector>& qs = default_plan_states();
   if (qs.empty()) {
     state.SkipWithError("the default cell's plan has no samples");
     return;
@@ -174,6 +181,35 @@ void BM_CellContacts(benchmark::State& state) {
       static_cast<double>(contacts) / static_cast<double>(state.iterations());
 }
 BENCHMARK(BM_CellContacts)->Arg(0)->Arg(1);
+
+// The same states as the collision checker asks them: the arm's contact screen first, mj_collision only
+// where it finds a contact (compare BM_CellContacts/1, the early-out in).
+void BM_ArmContactScreen(benchmark::State& state) {
+  DefaultCell& c = cell();
+  ModelPtr model(mj_copyModel(nullptr, c.world.model()));
+  mjModel* m = model.get();
+  for (int g = 0; g < m->ngeom; ++g)
+    if (c.world.geom_label(g) == Label::kPart) m->geom_contype[g] = m->geom_conaffinity[g] = 0;
+  DataPtr d(mj_makeData(m));
+  const ArmContactScreen screen(m, c.world.geom_labels());
+  const std::vector<JointVector>& qs = default_plan_states();
+  size_t i = 0;
+  long touching = 0;
+  for (auto _ : state) {
+    const JointVector& q = qs[i++ % qs.size()];
+    for (size_t j = 0; j < c.world.qpos_adr().size(); ++j)
+      d->qpos[c.world.qpos_adr()[j]] = q[static_cast<int>(j)];
+    mj_kinematics(m, d.get());
+    if (!screen.clear(m, d.get())) {
+      mj_collision(m, d.get());
+      ++touching;
+    }
+  }
+  state.counters["pairs"] = static_cast<double>(screen.pairs());
+  state.counters["touching_per_state"] =
+      static_cast<double>(touching) / static_cast<double>(state.iterations());
+}
+BENCHMARK(BM_ArmContactScreen);
 
 }  // namespace
 }  // namespace weldtwin

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "perception/mesh_rays.hpp"
+#include "sim/contact_screen.hpp"
 
 namespace weldtwin {
 namespace {
@@ -287,6 +288,7 @@ struct CollisionChecker::State {
   double part_margin = 0.0, weld_margin = 0.0;
   ModelPtr model;
   DataPtr data;
+  std::optional<ArmContactScreen> screen;  ///< asked first: mj_collision only when it finds a contact
 };
 
 CollisionChecker::CollisionChecker(const MujocoWorld& world, double margin_m, double torch_clearance_m)
@@ -312,6 +314,7 @@ CollisionChecker::CollisionChecker(const MujocoWorld& world, double margin_m, do
     }
   }
   state_->data.reset(mj_makeData(m));
+  state_->screen.emplace(m, world.geom_labels());
 }
 
 void CollisionChecker::add_part(const Mesh& part_mesh, const Iso3& T_base_part, double margin_m,
@@ -342,7 +345,9 @@ std::string CollisionChecker::operator()(const JointVector& q, bool welding) con
   const MujocoWorld& world = *state_->world;
   for (size_t i = 0; i < world.qpos_adr().size(); ++i) d->qpos[world.qpos_adr()[i]] = q[static_cast<int>(i)];
   mj_kinematics(m, d);
-  mj_collision(m, d);
+  // The screen's "clear" is mj_collision's; where it finds a contact, mj_collision finds the one it names.
+  d->ncon = 0;
+  if (!state_->screen->clear(m, d)) mj_collision(m, d);
   for (int c = 0; c < d->ncon; ++c) {
     const mjContact& con = d->contact[c];
     const bool r1 = world.geom_label(con.geom1) == Label::kRobot,

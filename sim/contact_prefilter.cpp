@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <mutex>
-#include <unordered_map>
+#include <vector>
 
 // MuJoCo's table of pair-wise collision functions, indexed by the two geom types (the smaller first).
 // Exported by libmujoco (MJAPI in its collision driver) though not declared in the public headers.
@@ -22,25 +22,31 @@ struct Frame {
   double half[3];   // half sizes along the axes (a cylinder's box: radius, radius, half-length)
 };
 
-// The box round a mesh's vertices in its frame, computed once per thread and mesh: the vertices are
-// looked up by address, and the entry is trusted only while their count and first and last vertex match
-// (another model may later take the same memory).
+// The box round a mesh's vertices in its frame, computed once per thread and mesh id: the entry is trusted
+// only while the vertices' address, count and first and last vertex match (another model may have other
+// meshes under the same ids, or later take the same memory).
 struct MeshBox {
+  const float* vert = nullptr;
   int count = 0;
   float first[3] = {0, 0, 0}, last[3] = {0, 0, 0};
   double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
 };
 
-const MeshBox& mesh_box(const float* v, int count) {
-  thread_local std::unordered_map<const float*, MeshBox> boxes;
-  MeshBox& box = boxes[v];
+const MeshBox& mesh_box(int mesh, const float* v, int count) {
+  thread_local std::vector<MeshBox>
+      boxes;  // by mesh id (a vector: hashing the address cost as much as the test)
+  if (static_cast<size_t>(mesh) >= boxes.size()) boxes.resize(static_cast<size_t>(mesh) + 1);
+  MeshBox& box = boxes[static_cast<size_t>(mesh)];
   if (count <= 0) {
     box = MeshBox();
     return box;
   }
   const float* end = v + 3 * (count - 1);
-  if (box.count == count && std::equal(v, v + 3, box.first) && std::equal(end, end + 3, box.last)) return box;
+  if (box.vert == v && box.count == count && std::equal(v, v + 3, box.first) &&
+      std::equal(end, end + 3, box.last))
+    return box;
   box = MeshBox();
+  box.vert = v;
   box.count = count;
   std::copy(v, v + 3, box.first);
   std::copy(end, end + 3, box.last);
@@ -61,7 +67,7 @@ Frame frame_of(const mjModel* m, const mjData* d, int g) {
   if (m->geom_type[g] == mjGEOM_MESH) {
     // The box round the mesh's vertices in the geom frame (MuJoCo keeps them so), its centre off the origin.
     const int mesh = m->geom_dataid[g];
-    const MeshBox& box = mesh_box(m->mesh_vert + 3 * m->mesh_vertadr[mesh], m->mesh_vertnum[mesh]);
+    const MeshBox& box = mesh_box(mesh, m->mesh_vert + 3 * m->mesh_vertadr[mesh], m->mesh_vertnum[mesh]);
     const double *lo = box.lo, *hi = box.hi;
     for (int k = 0; k < 3; ++k) {
       f.half[k] = 0.5 * (hi[k] - lo[k]) + 1e-7;  // float vertices
