@@ -74,6 +74,18 @@ double sphere_gap(const mjModel* m, const mjData* d, int h, const double* c, dou
   }
 }
 
+// Whether a sphere is farther than `margin` from the static geom `h`: by the geom's bounding sphere first (no
+// square root, no turn into its frame), by its shape where that does not settle it.
+bool sphere_clear(const mjModel* m, const mjData* d, int h, const double* c, double r, double margin) {
+  const double rb = m->geom_rbound[h];
+  if (rb > 0) {
+    const mjtNum* x = d->geom_xpos + 3 * h;
+    const double v[3] = {c[0] - x[0], c[1] - x[1], c[2] - x[2]}, reach = rb + r + margin;
+    if (v[0] * v[0] + v[1] * v[1] + v[2] * v[2] > reach * reach) return true;
+  }
+  return sphere_gap(m, d, h, c, r) > margin;
+}
+
 double pair_margin(const mjModel* m, int g1, int g2) {
   return std::max(m->geom_margin[g1], m->geom_margin[g2]);
 }
@@ -168,7 +180,7 @@ bool ArmContactScreen::clear(const mjModel* m, mjData* d) const {
     if (bp.other_geom < 0) {
       const double r2 = body_sphere_[static_cast<size_t>(bp.other_body)].radius;
       if (distance(c, center[static_cast<size_t>(bp.other_body)].data()) > r + r2 + margin_) continue;
-    } else if (sphere_gap(m, d, bp.other_geom, c, r) > margin_) {
+    } else if (sphere_clear(m, d, bp.other_geom, c, r, margin_)) {
       continue;
     }
     for (const BodyPair::Row& row : bp.rows) {
@@ -176,11 +188,11 @@ bool ArmContactScreen::clear(const mjModel* m, mjData* d) const {
       const double* x = d->geom_xpos + 3 * row.geom;
       const double rb = m->geom_rbound[row.geom];
       if (rb > 0) {
-        const double gap = bp.other_geom < 0
-                               ? distance(x, center[static_cast<size_t>(bp.other_body)].data()) - rb -
-                                     body_sphere_[static_cast<size_t>(bp.other_body)].radius
-                               : sphere_gap(m, d, bp.other_geom, x, rb);
-        if (gap > margin_) continue;
+        if (bp.other_geom >= 0 ? sphere_clear(m, d, bp.other_geom, x, rb, margin_)
+                               : distance(x, center[static_cast<size_t>(bp.other_body)].data()) - rb -
+                                         body_sphere_[static_cast<size_t>(bp.other_body)].radius >
+                                     margin_)
+          continue;
       }
       for (size_t k = row.first; k < row.end; ++k) {
         const GeomPair& p = bp.pairs[k];
