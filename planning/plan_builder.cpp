@@ -250,10 +250,11 @@ Builder::Ran Builder::transit(const JointVector& to, const std::string& what) {
   // Last: a path found in the free joint space, run waypoint to waypoint.
   const std::vector<JointVector> path = free_joint_path(
       q_, to, robot_.lower(), robot_.upper(),
-      [&](const JointVector& q) { return set_.collision(q, false).empty(); }, set_.collision_step_rad);
-  // Its segments were asked `collision_step_rad` apart along the straight joint-space line; the timed samples
-  // are asked as every transit's are (no more than `transit_check_rad` apart): a segment that grazed an
-  // obstacle between two of the search's questions is not taken.
+      [&](const JointVector& q) { return set_.collision(q, false).empty(); }, set_.transit_check_rad);
+  // Its segments are asked `transit_check_rad` apart along the straight joint-space lines (the step of every
+  // transit's check: at 20 mrad the search took the straight line that the check of the timed samples had
+  // just refused); the timed samples are then asked as every transit's are, and a path whose samples meet
+  // something between two of the search's questions is not taken.
   if (!path.empty()) {
     for (size_t k = 1; k < path.size(); ++k) joint_move(path[k]);
     if ((q_ - to).cwiseAbs().maxCoeff() < 1e-9 && collision_since(start.samples).empty()) return Ran::kOk;

@@ -521,6 +521,44 @@ TEST(WeldPlanner, AsksTheTransitsNoMoreThanTheirCheckStepApart) {
   EXPECT_LT(asked.size(), s.size() / 2);  // and the slow parts are not asked sample by sample
 }
 
+// A way found in joint space is searched with the step the transits are checked at. The stand-in: a wall
+// 11 mrad thick across the joint that turns most on the way home from the last weld, as wide as +-0.3 rad
+// of another joint round the straight way: every straight, lifted or by-way-of-home transit home crosses it,
+// and a check 10 mrad apart in every joint always finds it. Searched at 20 mrad (the step before) the search
+// took lines through it (its questions fell either side), which the transit's check then refused, and the
+// plan failed; the wall at five places along the way.
+TEST(WeldPlanner, FindsAWayRoundAWallThinnerThanTheOldSearchStep) {
+  const CellSpec cell = CellSpec::load(test::repo("scenes/cells/default.yaml"));
+  const RobotModel robot = load_cell_robot(cell);
+  const PartSpec part = PartSpec::load(cell.part_spec);
+  const Iso3 T = make_layout(cell, part, std::nullopt).T_base_part;
+  const WeldPlan free = plan_welds(part, T, robot);
+  ASSERT_TRUE(free.ok()) << free.problems.front();
+  const PlanSample* last_weld = nullptr;
+  for (const PlanSample& s : free.samples)
+    if (s.phase == Phase::kWeld) last_weld = &s;
+  ASSERT_NE(last_weld, nullptr);
+  PlanSetting setting;
+  const JointVector change = setting.home - last_weld->q;
+  int across = 0;
+  change.cwiseAbs().maxCoeff(&across);
+  ASSERT_GT(std::abs(change[across]), 0.3) << "the way home must cross the wall";
+  const int along = across == 1 ? 0 : 1;
+  for (const double f : {0.3, 0.4, 0.5, 0.6, 0.7}) {
+    const JointVector mid = last_weld->q + f * change;
+    const auto in_wall = [&](const JointVector& q) {
+      return std::abs(q[across] - mid[across]) < 0.0055 && std::abs(q[along] - mid[along]) < 0.3;
+    };
+    setting.collision = [&](const JointVector& q, bool) -> std::string {
+      return in_wall(q) ? "the wall" : "";
+    };
+    const WeldPlan plan = plan_welds(part, T, robot, setting);
+    ASSERT_TRUE(plan.ok()) << "wall at " << f << " of the way: " << plan.problems.front();
+    for (const PlanSample& s : plan.samples)
+      ASSERT_FALSE(in_wall(s.q)) << "wall at " << f << ", t = " << s.t_s;
+  }
+}
+
 TEST(Seam, ReversedRunsTheSamePointsBackwards) {
   const PartSpec round = PartSpec::load(test::repo("scenes/parts/round_on_plate.yaml"));
   const PartSpec tube = PartSpec::load(test::repo("scenes/parts/tube_on_plate.yaml"));
