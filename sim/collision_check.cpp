@@ -277,7 +277,7 @@ double PartClearance::clearance(const mjData* d, std::string* geom, Hint* hint) 
   }
   if (hint)
     *hint = best_geom >= 0 ? Hint{static_cast<int>(best_chunk), static_cast<int>(best_index)} : Hint{};
-  if (best_geom >= 0 && best < 0.005 && rays.inside(best_point)) best = -best;
+  if (best_geom >= 0 && best < kInsideTestWithin_m && rays.inside(best_point)) best = -best;
   if (geom) *geom = best_geom >= 0 ? geom_name(impl_->world->model(), best_geom) : "";
   return best;
 }
@@ -319,7 +319,10 @@ CollisionChecker::CollisionChecker(const MujocoWorld& world, double margin_m, do
 
 void CollisionChecker::add_part(const Mesh& part_mesh, const Iso3& T_base_part, double margin_m,
                                 double weld_margin_m) {
-  state_->part.emplace(*state_->world, part_mesh, T_base_part, 2 * margin_m + 0.005);
+  // The checker asks only whether the clearance is under a margin: the search need look no farther than the
+  // inside test does (beyond it every answer is outside and above the margins), which prunes more of the arm.
+  state_->part.emplace(*state_->world, part_mesh, T_base_part,
+                       std::max({margin_m, weld_margin_m, PartClearance::kInsideTestWithin_m}));
   state_->part_margin = margin_m;
   state_->weld_margin = weld_margin_m;
 }

@@ -25,6 +25,9 @@ class PartClearance {
   struct Hint {
     int chunk = -1, point = -1;
   };
+  /// A nearest point closer than this [m] is asked whether it lies inside the part (the answer then
+  /// negative); one farther is taken to be outside.
+  static constexpr double kInsideTestWithin_m = 0.005;
   double clearance(const mjData* d, std::string* geom = nullptr, Hint* hint = nullptr) const;
   /// The part now stands at T_base_part (the mesh stays as built; queries are moved). Copies share it.
   void set_part_pose(const Iso3& T_base_part);
