@@ -134,10 +134,6 @@ void BM_LidarPose(benchmark::State& state) {
 }
 BENCHMARK(BM_LidarPose)->Arg(0)->Arg(1);
 
-// MuJoCo's contacts of the default cell's arm (its links' cylinders and boxes against each other, the table,
-// clamps and clutter) at the states of its weld plan: its convex collider for every pair whose bounding
-// spheres meet (0) against the exact early-out in front of it (1). Each state's kinematics included; the part
-// left out, as the replay leaves it out.
 // The states of the default cell's weld plan (at the part's true pose), as the replay steps through them.
 const std::vector<JointVector>& default_plan_states() {
   static const std::vector<JointVector> qs = [] {
@@ -152,13 +148,30 @@ const std::vector<JointVector>& default_plan_states() {
   return qs;
 }
 
+// The default cell's model as the replay and the collision checker have it: the part out of MuJoCo's contacts
+// (its exact mesh is checked apart).
+ModelPtr model_without_part(const DefaultCell& c) {
+  ModelPtr model(mj_copyModel(nullptr, c.world.model()));
+  for (int g = 0; g < model->ngeom; ++g)
+    if (c.world.geom_label(g) == Label::kPart) model->geom_contype[g] = model->geom_conaffinity[g] = 0;
+  return model;
+}
+
+// The arm at q, after mj_kinematics.
+void pose_arm(const DefaultCell& c, const mjModel* m, mjData* d, const JointVector& q) {
+  for (size_t j = 0; j < c.world.qpos_adr().size(); ++j)
+    d->qpos[c.world.qpos_adr()[j]] = q[static_cast<int>(j)];
+  mj_kinematics(m, d);
+}
+
+// MuJoCo's contacts of the default cell's arm (its links' cylinders and boxes against each other, the table,
+// clamps and clutter) at the states of its weld plan: its convex collider for every pair whose bounding
+// spheres meet (0) against the exact early-out in front of it (1). Each state's kinematics included; the part
+// left out, as the replay leaves it out.
 void BM_CellContacts(benchmark::State& state) {
   DefaultCell& c = cell();
-  // As the replay has it: the part out of MuJoCo's contacts (its exact mesh is checked apart).
-  ModelPtr model(mj_copyModel(nullptr, c.world.model()));
+  ModelPtr model = model_without_part(c);
   mjModel* m = model.get();
-  for (int g = 0; g < m->ngeom; ++g)
-    if (c.world.geom_label(g) == Label::kPart) m->geom_contype[g] = m->geom_conaffinity[g] = 0;
   DataPtr d(mj_makeData(m));
   const std::vector<JointVector>& qs = default_plan_states();
   if (qs.empty()) {
@@ -169,10 +182,7 @@ void BM_CellContacts(benchmark::State& state) {
   size_t i = 0;
   long contacts = 0;
   for (auto _ : state) {
-    const JointVector& q = qs[i++ % qs.size()];
-    for (size_t j = 0; j < c.world.qpos_adr().size(); ++j)
-      d->qpos[c.world.qpos_adr()[j]] = q[static_cast<int>(j)];
-    mj_kinematics(m, d.get());
+    pose_arm(c, m, d.get(), qs[i++ % qs.size()]);
     mj_collision(m, d.get());
     contacts += d->ncon;
   }
@@ -186,20 +196,15 @@ BENCHMARK(BM_CellContacts)->Arg(0)->Arg(1);
 // where it finds a contact (compare BM_CellContacts/1, the early-out in).
 void BM_ArmContactScreen(benchmark::State& state) {
   DefaultCell& c = cell();
-  ModelPtr model(mj_copyModel(nullptr, c.world.model()));
+  ModelPtr model = model_without_part(c);
   mjModel* m = model.get();
-  for (int g = 0; g < m->ngeom; ++g)
-    if (c.world.geom_label(g) == Label::kPart) m->geom_contype[g] = m->geom_conaffinity[g] = 0;
   DataPtr d(mj_makeData(m));
   const ArmContactScreen screen(m, c.world.geom_labels());
   const std::vector<JointVector>& qs = default_plan_states();
   size_t i = 0;
   long touching = 0;
   for (auto _ : state) {
-    const JointVector& q = qs[i++ % qs.size()];
-    for (size_t j = 0; j < c.world.qpos_adr().size(); ++j)
-      d->qpos[c.world.qpos_adr()[j]] = q[static_cast<int>(j)];
-    mj_kinematics(m, d.get());
+    pose_arm(c, m, d.get(), qs[i++ % qs.size()]);
     if (!screen.clear(m, d.get())) {
       mj_collision(m, d.get());
       ++touching;
