@@ -94,6 +94,12 @@ double pair_margin(const mjModel* m, int g1, int g2) {
 
 ArmContactScreen::ArmContactScreen(const mjModel* m, const std::vector<Label>& labels)
     : body_sphere_(static_cast<size_t>(m->nbody)) {
+  // Explicit <pair>s (MuJoCo collides them whatever their contact types, with margins of their own) and
+  // overridden margins are not what the screen mirrors: then it answers nothing on its own.
+  if (m->npair > 0 || (m->opt.enableflags & mjENBL_OVERRIDE)) {
+    screens_ = false;
+    return;
+  }
   const auto arm = [&](int g) { return labels[static_cast<size_t>(g)] == Label::kRobot; };
   std::vector<std::vector<int>> geoms_of(static_cast<size_t>(m->nbody));
   for (int g = 0; g < m->ngeom; ++g)
@@ -162,6 +168,7 @@ ArmContactScreen::ArmContactScreen(const mjModel* m, const std::vector<Label>& l
 }
 
 bool ArmContactScreen::clear(const mjModel* m, mjData* d) const {
+  if (!screens_) return false;
   // The bodies' spheres in the world, this state.
   thread_local std::vector<std::array<double, 3>> center;
   center.resize(static_cast<size_t>(m->nbody));

@@ -24,8 +24,9 @@ class ArmContactScreen {
   /// contact (`dist <= 0`; closer than the margin is no collision among the arm's own links).
   ArmContactScreen(const mjModel* m, const std::vector<Label>& labels);
 
-  /// After mj_kinematics on `d`: true when no pair has a counted contact. Uses `d`'s stack (as
-  /// mj_collision does) and no other state.
+  /// After mj_kinematics on `d`: true when no pair has a counted contact; false when one has, and always
+  /// for a model with explicit contact pairs or overridden margins (the screen does not mirror those: ask
+  /// mj_collision). No state of its own changes.
   bool clear(const mjModel* m, mjData* d) const;
 
   /// How many geom pairs it may test, for benchmarks and tests.
@@ -59,6 +60,7 @@ class ArmContactScreen {
   std::vector<Sphere> body_sphere_;  ///< per body (moving ones filled)
   double margin_ = 0.0;              ///< the largest geom margin: every sphere test allows for it
   size_t pair_count_ = 0;
+  bool screens_ = true;  ///< false: a model whose contacts the screen does not mirror
 };
 
 }  // namespace weldtwin

@@ -99,5 +99,27 @@ TEST(ArmContactScreen, FindsAContactExactlyWhereMjCollisionDoesWithAMargin) {
   expect_same_answers("scenes/cells/default.yaml", "", 0.004, 4);
 }
 
+// An explicit contact pair is collided whatever the geoms' contact types: the screen, which mirrors only the
+// types, must not call such a model clear (it leaves it to mj_collision).
+TEST(ArmContactScreen, LeavesAModelWithExplicitPairsToMjCollision) {
+  const char* xml = R"(<mujoco><worldbody>
+    <geom name="table" type="box" size="0.4 0.4 0.02" contype="0" conaffinity="0"/>
+    <body name="link" pos="0 0 0.045"><joint name="j" type="hinge" axis="0 1 0"/>
+      <geom name="arm" type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" contype="0" conaffinity="0"/>
+    </body></worldbody>
+    <contact><pair geom1="table" geom2="arm"/></contact></mujoco>)";
+  ModelPtr model = load_mjcf(xml, ".", "explicit pair");
+  mjModel* m = model.get();
+  DataPtr d(mj_makeData(m));
+  const std::vector<Label> labels = {Label::kTable, Label::kRobot};
+  ASSERT_EQ(m->ngeom, 2);
+  const ArmContactScreen screen(m, labels);
+  d->qpos[0] = 0.0;  // the link lying 5 mm into the table
+  mj_kinematics(m, d.get());
+  mj_collision(m, d.get());
+  ASSERT_GT(d->ncon, 0) << "the explicit pair touches";
+  EXPECT_FALSE(screen.clear(m, d.get()));
+}
+
 }  // namespace
 }  // namespace weldtwin
