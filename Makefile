@@ -48,7 +48,8 @@ test-sanitize: setup
 	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 ctest --output-on-failure -j$(JOBS) -E '$(SANITIZE_SKIP)'
 
 # weldtwin built without its optional parts (ROS bags, OMPL, OSMesa: WELDTWIN_WITH_*=OFF): it links none of
-# them, welds the default cell, and says "built without ..." where one is asked for.
+# them, welds (the default cell, or says a transit there needs the left-out search), and says "built without ..."
+# where one is asked for.
 test-without-options: setup
 	@cmake -S . -B $(BUILD)-minimal $(CMAKE_FLAGS) -DWELDTWIN_WITH_ROSBAG=OFF -DWELDTWIN_WITH_OMPL=OFF \
 	  -DWELDTWIN_WITH_OSMESA=OFF -DWELDTWIN_BUILD_TESTS=OFF -DWELDTWIN_BUILD_BENCHMARKS=OFF >/dev/null

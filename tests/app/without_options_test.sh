@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # A weldtwin built without its optional parts (WELDTWIN_WITH_ROSBAG, _OMPL, _OSMESA all OFF; `make
-# test-without-options` builds it): it links none of them, still welds the default cell, and says in one line
-# what it cannot do where that is asked for.
+# test-without-options` builds it): it links none of them, still welds, and says in one line what it cannot do
+# where that is asked for.
 # Usage: without_options_test.sh WELDTWIN
 set -uo pipefail
 weldtwin=$1
@@ -32,13 +32,25 @@ status=$?
 grep -q "sweep.bag.*built without ROS bag support" "$out/scan.err" ||
   fail "writing a ROS bag: no line naming it: $(cat "$out/scan.err")"
 
-# The default cell still welds (no joint-space search needed there); the report says why it has no pictures.
+# The default cell: welded, or refused because a transit needs the joint-space search this build leaves out
+# (whether the cell's own placement needs it hangs on the last digits of the pose found: on one machine the
+# way home after the last seam is clear lifted, on another only a joint-space search finds it). Either way the
+# report says why it has no pictures.
 "$weldtwin" run -q --out "$out/run" >"$out/run.out" 2>"$out/run.err"
 status=$?
-[ "$status" -eq 0 ] || fail "weldtwin run on the default cell: exit $status: $(tail -3 "$out/run.err")"
+if [ "$status" -ne 0 ]; then
+  [ "$status" -eq 3 ] && grep -q "built without OMPL (WELDTWIN_WITH_OMPL=OFF), which searches joint space" "$out/run.err" ||
+    fail "weldtwin run on the default cell: exit $status: $(tail -3 "$out/run.err")"
+fi
 grep -q "built without OSMesa support (WELDTWIN_WITH_OSMESA=OFF)" "$out/run/report.html" ||
   fail "the report does not say it was built without OSMesa"
 [ -e "$out/run/cell_overview.png" ] && fail "the cell's pictures were drawn by a build without OSMesa"
+
+# A layout whose ways between seams need no joint-space search (seeds 1-6 of the default cell weld without it)
+# welds end to end.
+"$weldtwin" run -q --seed 1 --no-renders --out "$out/seed1" >"$out/seed1.out" 2>"$out/seed1.err"
+status=$?
+[ "$status" -eq 0 ] || fail "weldtwin run --seed 1 on the default cell: exit $status: $(tail -3 "$out/seed1.err")"
 
 [ "$failed" -eq 0 ] && echo "without_options_test: passed"
 exit "$failed"
