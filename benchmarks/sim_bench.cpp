@@ -157,13 +157,6 @@ ModelPtr model_without_part(const DefaultCell& c) {
   return model;
 }
 
-// The arm at q, after mj_kinematics.
-void pose_arm(const DefaultCell& c, const mjModel* m, mjData* d, const JointVector& q) {
-  for (size_t j = 0; j < c.world.qpos_adr().size(); ++j)
-    d->qpos[c.world.qpos_adr()[j]] = q[static_cast<int>(j)];
-  mj_kinematics(m, d);
-}
-
 // MuJoCo's contacts of the default cell's arm (its links' cylinders and boxes against each other, the table,
 // clamps and clutter) at the states of its weld plan: its convex collider for every pair whose bounding
 // spheres meet (0) against the exact early-out in front of it (1). Each state's kinematics included; the part
@@ -182,7 +175,7 @@ void BM_CellContacts(benchmark::State& state) {
   size_t i = 0;
   long contacts = 0;
   for (auto _ : state) {
-    pose_arm(c, m, d.get(), qs[i++ % qs.size()]);
+    c.world.set_joints(m, d.get(), qs[i++ % qs.size()]);
     mj_collision(m, d.get());
     contacts += d->ncon;
   }
@@ -204,7 +197,7 @@ void BM_ArmContactScreen(benchmark::State& state) {
   size_t i = 0;
   long touching = 0;
   for (auto _ : state) {
-    pose_arm(c, m, d.get(), qs[i++ % qs.size()]);
+    c.world.set_joints(m, d.get(), qs[i++ % qs.size()]);
     if (!screen.clear(m, d.get())) {
       mj_collision(m, d.get());
       ++touching;

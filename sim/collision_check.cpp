@@ -346,8 +346,7 @@ std::string CollisionChecker::operator()(const JointVector& q, bool welding) con
   const mjModel* m = state_->model.get();
   mjData* d = state_->data.get();
   const MujocoWorld& world = *state_->world;
-  for (size_t i = 0; i < world.qpos_adr().size(); ++i) d->qpos[world.qpos_adr()[i]] = q[static_cast<int>(i)];
-  mj_kinematics(m, d);
+  world.set_joints(m, d, q);
   // The screen's "clear" is mj_collision's; where it finds a contact, mj_collision finds the one it names.
   d->ncon = 0;
   if (!state_->screen->clear(m, d)) mj_collision(m, d);

@@ -167,7 +167,7 @@ ArmContactScreen::ArmContactScreen(const mjModel* m, const std::vector<Label>& l
   }
 }
 
-bool ArmContactScreen::clear(const mjModel* m, mjData* d) const {
+bool ArmContactScreen::clear(const mjModel* m, const mjData* d) const {
   if (!screens_) return false;
   // The bodies' spheres in the world, this state.
   thread_local std::vector<std::array<double, 3>> center;

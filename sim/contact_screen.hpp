@@ -27,7 +27,7 @@ class ArmContactScreen {
   /// After mj_kinematics on `d`: true when no pair has a counted contact; false when one has, and always
   /// for a model with explicit contact pairs or overridden margins (the screen does not mirror those: ask
   /// mj_collision). No state of its own changes.
-  bool clear(const mjModel* m, mjData* d) const;
+  bool clear(const mjModel* m, const mjData* d) const;
 
   /// How many geom pairs it may test, for benchmarks and tests.
   size_t pairs() const { return pair_count_; }

@@ -427,9 +427,9 @@ MujocoWorld::MujocoWorld(const CellSpec& cell, const PartSpec& part, const Robot
   mj_kinematics(m, data_.get());
 }
 
-void MujocoWorld::set_joints(mjData* d, const JointVector& q) const {
+void MujocoWorld::set_joints(const mjModel* m, mjData* d, const JointVector& q) const {
   for (size_t i = 0; i < qpos_adr_.size(); ++i) d->qpos[qpos_adr_[i]] = q[static_cast<int>(i)];
-  mj_kinematics(model_.get(), d);
+  mj_kinematics(m, d);
 }
 
 int MujocoWorld::body(const std::string& name) const {

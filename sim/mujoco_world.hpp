@@ -66,7 +66,10 @@ class MujocoWorld {
   DataPtr make_data() const { return DataPtr(mj_makeData(model_.get())); }
 
   /// Sets the arm's joints (URDF order) and runs mj_kinematics on `d`.
-  void set_joints(mjData* d, const JointVector& q) const;
+  void set_joints(mjData* d, const JointVector& q) const { set_joints(model_.get(), d, q); }
+  /// The same with `m`, this world's model or a copy of it (the collision checker's, with its own margins and
+  /// placements) that `d` was made for.
+  void set_joints(const mjModel* m, mjData* d, const JointVector& q) const;
   Label geom_label(int geom) const { return geom_labels_[static_cast<size_t>(geom)]; }
   const std::vector<Label>& geom_labels() const { return geom_labels_; }
   /// Whether the layout places the geom (the part, a clamp, clutter); the others (the environment's and the

@@ -55,9 +55,7 @@ void expect_same_answers(const std::string& cell_file, const std::string& robot_
   int touching = 0, clear = 0;
   // mj_collision's answer; the screen's must be the same.
   const auto ask = [&](const JointVector& q, const std::string& what) {
-    for (size_t i = 0; i < world.qpos_adr().size(); ++i)
-      d->qpos[world.qpos_adr()[i]] = q[static_cast<int>(i)];
-    mj_kinematics(m, d.get());
+    world.set_joints(m, d.get(), q);
     const bool screened_clear = screen.clear(m, d.get());
     mj_collision(m, d.get());
     const bool contact = counted_contact(world, d.get());
