@@ -54,6 +54,24 @@ Vec3 Seam::wall_normal_at(double s) const {
   return (r - r.dot(axis) * axis).normalized();
 }
 
+Seam::Frame Seam::frame_at(double s) const {
+  Frame f;
+  f.point = point_at(s);
+  if (kind == Kind::kLine) {
+    f.direction = (end - start).normalized();
+  } else {
+    const Vec3 r = f.point - center;
+    f.direction = (sweep_rad >= 0 ? 1.0 : -1.0) * axis.cross(r).normalized();
+  }
+  if (wall_normal_radial) {
+    const Vec3 r = f.point - center;
+    f.wall_normal = (r - r.dot(axis) * axis).normalized();
+  } else {
+    f.wall_normal = wall_normal;
+  }
+  return f;
+}
+
 double Seam::distance_to(const Vec3& q) const {
   if (kind == Kind::kLine) {
     const Vec3 ab = end - start;

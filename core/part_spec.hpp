@@ -38,6 +38,11 @@ struct Seam {
   Vec3 direction_at(double s) const;
   /// m at fraction s.
   Vec3 wall_normal_at(double s) const;
+  /// The three above at fraction s, the point computed once.
+  struct Frame {
+    Vec3 point, direction, wall_normal;
+  };
+  Frame frame_at(double s) const;
   /// Distance from `q` (part frame) to the seam's nearest point, exactly (a line's segment, an arc's circle
   /// within its sweep, else its nearer end) [m]. The one seam distance of the project.
   double distance_to(const Vec3& q) const;

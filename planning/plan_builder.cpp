@@ -35,6 +35,13 @@ Choice Builder::choose(const SeamGeometry& g, double s0, double s1, std::optiona
     JointVector first, last;                               ///< at the approach pose; at the last station
     std::vector<std::pair<JointVector, bool>> stations_q;  ///< for the collision test
   };
+  // The torch at every station before its roll, shared by the rolls: the stretch's start (its approach pose
+  // too, backed off), the stations, its end (the departure pose).
+  std::vector<SeamGeometry::Station> at;
+  at.reserve(static_cast<size_t>(stations) + 2);
+  at.push_back(g.station(s0));
+  for (int k = 1; k <= stations; ++k) at.push_back(g.station(s0 + (s1 - s0) * k / stations));
+  at.push_back(g.station(s1));
   std::vector<Candidate> candidates;
   for (double roll : rolls) {
     std::array<double, 8> worst;
@@ -43,9 +50,9 @@ Choice Builder::choose(const SeamGeometry& g, double s0, double s1, std::optiona
     std::array<std::vector<std::pair<JointVector, bool>>, 8> stations_q;
     // Stations along the stretch, plus its approach (k = -1) and departure (k = stations + 1) poses.
     for (int k = -1; k <= stations + 1; ++k) {
-      const Iso3 pose = k < 0          ? backed_off(g.tcp(s0, roll), set_.approach_m)
-                        : k > stations ? backed_off(g.tcp(s1, roll), set_.approach_m)
-                                       : g.tcp(s0 + (s1 - s0) * k / stations, roll);
+      const Iso3 pose = k < 0          ? backed_off(SeamGeometry::tcp(at.front(), roll), set_.approach_m)
+                        : k > stations ? backed_off(SeamGeometry::tcp(at.back(), roll), set_.approach_m)
+                                       : SeamGeometry::tcp(at[static_cast<size_t>(k)], roll);
       const auto sols = ik_.solve(pose, k < 0 ? q_[5] : last[0][5]);
       for (int b = 0; b < 8; ++b) {
         const IkSolution& s = sols[static_cast<size_t>(b)];
@@ -85,8 +92,8 @@ Choice Builder::choose(const SeamGeometry& g, double s0, double s1, std::optiona
       rejected();
       continue;
     }
-    const auto in = clear_way(g.tcp(s0, c.roll), c.branch, c.first);
-    const auto out = in ? clear_way(g.tcp(s1, c.roll), c.branch, c.last) : std::nullopt;
+    const auto in = clear_way(SeamGeometry::tcp(at.front(), c.roll), c.branch, c.first);
+    const auto out = in ? clear_way(SeamGeometry::tcp(at.back(), c.roll), c.branch, c.last) : std::nullopt;
     if (!in || !out) {
       if (!last_hit_.empty()) rejected();
       continue;

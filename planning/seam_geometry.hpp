@@ -16,12 +16,22 @@ struct SeamGeometry {
   double work = 0.0, travel = 0.0;  ///< the torch's work and travel angles [rad]
 
   Vec3 point(double s) const { return T_base_part * seam->point_at(s / length); }
-  Iso3 tcp(double s, double roll) const {
-    const double f = s / length;
+
+  // The torch at s before its roll: where it points and what the roll turns.
+  struct Station {
+    Vec3 point;
+    TorchAxes axes;
+  };
+  Station station(double s) const {
+    const Seam::Frame f = seam->frame_at(s / length);
     const Mat3& R = T_base_part.linear();
-    return make_transform(point(s), torch_orientation(R * seam->direction_at(f), R * seam->normal,
-                                                      R * seam->wall_normal_at(f), work, travel, roll));
+    return {T_base_part * f.point,
+            torch_axes(R * f.direction, R * seam->normal, R * f.wall_normal, work, travel)};
   }
+  static Iso3 tcp(const Station& at, double roll) {
+    return make_transform(at.point, torch_orientation(at.axes, roll));
+  }
+  Iso3 tcp(double s, double roll) const { return tcp(station(s), roll); }
 };
 
 // The pose `T` moved by `distance` along `direction` (its orientation kept).

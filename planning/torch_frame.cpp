@@ -12,18 +12,26 @@ Vec3 orthogonal_to(const Vec3& v, const Vec3& d) {
 
 }  // namespace
 
-Mat3 torch_orientation(const Vec3& d_in, const Vec3& n_in, const Vec3& m_in, double work, double travel,
-                       double roll) {
+TorchAxes torch_axes(const Vec3& d_in, const Vec3& n_in, const Vec3& m_in, double work, double travel) {
   const Vec3 d = d_in.normalized();
   const Vec3 n = orthogonal_to(n_in, d), m = orthogonal_to(m_in, d);
   const Vec3 a0 = -(std::cos(work) * n + std::sin(work) * m).normalized();
-  const Vec3 a = (std::cos(travel) * a0 + std::sin(travel) * d).normalized();
-  const Vec3 x0 = orthogonal_to(d, a);
+  TorchAxes axes;
+  axes.a = (std::cos(travel) * a0 + std::sin(travel) * d).normalized();
+  axes.x0 = orthogonal_to(d, axes.a);
+  return axes;
+}
+
+Mat3 torch_orientation(const TorchAxes& axes, double roll) {
   Mat3 R;
-  R.col(2) = a;
-  R.col(0) = Eigen::AngleAxisd(roll, a) * x0;
-  R.col(1) = a.cross(R.col(0));
+  R.col(2) = axes.a;
+  R.col(0) = Eigen::AngleAxisd(roll, axes.a) * axes.x0;
+  R.col(1) = axes.a.cross(R.col(0));
   return R;
+}
+
+Mat3 torch_orientation(const Vec3& d, const Vec3& n, const Vec3& m, double work, double travel, double roll) {
+  return torch_orientation(torch_axes(d, n, m, work, travel), roll);
 }
 
 void torch_angles(const Mat3& R_base_tcp, const Vec3& d_in, const Vec3& n_in, const Vec3& m_in, double& work,

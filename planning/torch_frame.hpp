@@ -9,6 +9,16 @@
 
 namespace weldtwin {
 
+/// The torch's axis `a` (z_tcp) and its direction at roll 0 (`x0`) for the given seam directions (base
+/// frame) and work and travel angles [rad]: what a pose's roll turns about.
+struct TorchAxes {
+  Vec3 a = Vec3::UnitZ(), x0 = Vec3::UnitX();
+};
+TorchAxes torch_axes(const Vec3& d, const Vec3& n, const Vec3& m, double work, double travel);
+
+/// R_base_tcp: the axes turned by the roll [rad] about `a`.
+Mat3 torch_orientation(const TorchAxes& axes, double roll);
+
 /// R_base_tcp for the given seam directions (base frame) and angles [rad].
 Mat3 torch_orientation(const Vec3& d, const Vec3& n, const Vec3& m, double work, double travel, double roll);
 

@@ -85,17 +85,20 @@ WeldPlan plan_welds(const PartSpec& part, const Iso3& T_base_part, const RobotMo
         double s1 = g.length;
         if (!c.ok && seam.kind == Seam::Kind::kArc && !seam.torch_roll_rad) {
           // The longest stretch from s0 that some roll can weld, by bisection on its end.
+          // The choice for the longest stretch found is kept (choose answers the same for the same stretch).
           double lo = s0, hi = g.length;
+          std::optional<Choice> at_lo;
           for (int it = 0; it < 7; ++it) {
             const double mid = 0.5 * (lo + hi);
-            if (b.choose(g, s0, mid, seam.torch_roll_rad, branch).ok) {
+            if (Choice m = b.choose(g, s0, mid, seam.torch_roll_rad, branch); m.ok) {
               lo = mid;
+              at_lo = m;
             } else {
               hi = mid;
             }
           }
           s1 = lo;
-          c = b.choose(g, s0, s1, seam.torch_roll_rad, branch);
+          c = at_lo ? *at_lo : b.choose(g, s0, s1, seam.torch_roll_rad, branch);
           // Leave no stub too short to blend at the weld speed: end this piece earlier instead.
           constexpr double kMinPiece = 0.025;
           if (g.length - s1 < kMinPiece && g.length - kMinPiece - s0 >= 0.01) {

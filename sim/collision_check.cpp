@@ -347,9 +347,14 @@ std::string CollisionChecker::operator()(const JointVector& q, bool welding) con
   mjData* d = state_->data.get();
   const MujocoWorld& world = *state_->world;
   world.set_joints(m, d, q);
-  // The screen's "clear" is mj_collision's; where it finds a contact, mj_collision finds the one it names.
+  // The screen's "clear" is mj_collision's, and the pair it finds touching is one mj_collision finds; a model
+  // it does not screen goes to mj_collision.
   d->ncon = 0;
-  if (!state_->screen->clear(m, d)) mj_collision(m, d);
+  ArmContactScreen::Touch touch;
+  if (!state_->screen->clear(m, d, &touch)) {
+    if (touch.arm_geom >= 0) return geom_name(m, touch.arm_geom) + " with " + geom_name(m, touch.other_geom);
+    mj_collision(m, d);
+  }
   for (int c = 0; c < d->ncon; ++c) {
     const mjContact& con = d->contact[c];
     const bool r1 = world.geom_label(con.geom1) == Label::kRobot,

@@ -117,6 +117,7 @@ ArmContactScreen::ArmContactScreen(const mjModel* m, const std::vector<Label>& l
         p.g1 = m->geom_type[g] <= m->geom_type[h] ? g : h;
         p.g2 = p.g1 == g ? h : g;
         p.both_arm = arm(g) && arm(h);
+        p.g1_arm = arm(p.g1);
         p.collide = prefiltered_collision_function(m->geom_type[p.g1], m->geom_type[p.g2]);
         if (p.collide) pairs.push_back(p);  // a pair of types MuJoCo has no function for never touches
       }
@@ -167,7 +168,7 @@ ArmContactScreen::ArmContactScreen(const mjModel* m, const std::vector<Label>& l
   }
 }
 
-bool ArmContactScreen::clear(const mjModel* m, const mjData* d) const {
+bool ArmContactScreen::clear(const mjModel* m, const mjData* d, Touch* touch) const {
   if (!screens_) return false;
   // The bodies' spheres in the world, this state.
   thread_local std::vector<std::array<double, 3>> center;
@@ -210,7 +211,10 @@ bool ArmContactScreen::clear(const mjModel* m, const mjData* d) const {
           continue;
         const int n = p.collide(m, d, con.data(), p.g1, p.g2, margin);
         for (int i = 0; i < n; ++i)
-          if (!p.both_arm || con[static_cast<size_t>(i)].dist <= 0) return false;
+          if (!p.both_arm || con[static_cast<size_t>(i)].dist <= 0) {
+            if (touch) *touch = p.g1_arm ? Touch{p.g1, p.g2} : Touch{p.g2, p.g1};
+            return false;
+          }
       }
     }
   }

@@ -5,8 +5,8 @@
 // round the link's collision geoms is clear of the obstacle's bounding sphere; the pairs left go to the
 // very collision functions mj_collision would call, with the same margin. It tests every pair MuJoCo
 // would test for a contact the planner counts (and MuJoCo's own filters: same body, excluded or parent
-// bodies, contact types), so "clear" here is "clear" for mj_collision; "touching" is followed by
-// mj_collision itself, which names the contact as before.
+// bodies, contact types), so "clear" here is "clear" for mj_collision; "touching" comes with the pair
+// found touching (a contact mj_collision finds too, not always the first it would list).
 #pragma once
 
 #include <vector>
@@ -24,10 +24,15 @@ class ArmContactScreen {
   /// contact (`dist <= 0`; closer than the margin is no collision among the arm's own links).
   ArmContactScreen(const mjModel* m, const std::vector<Label>& labels);
 
-  /// After mj_kinematics on `d`: true when no pair has a counted contact; false when one has, and always
-  /// for a model with explicit contact pairs or overridden margins (the screen does not mirror those: ask
-  /// mj_collision). No state of its own changes.
-  bool clear(const mjModel* m, const mjData* d) const;
+  /// A counted contact found: the arm's geom and the other geom (-1 when none was looked for).
+  struct Touch {
+    int arm_geom = -1, other_geom = -1;
+  };
+
+  /// After mj_kinematics on `d`: true when no pair has a counted contact; false when one has (the first
+  /// found is put in `touch`), and always for a model with explicit contact pairs or overridden margins (the
+  /// screen does not mirror those: ask mj_collision; `touch` is left as it was). No state of its own changes.
+  bool clear(const mjModel* m, const mjData* d, Touch* touch = nullptr) const;
 
   /// How many geom pairs it may test, for benchmarks and tests.
   size_t pairs() const { return pair_count_; }
@@ -36,6 +41,7 @@ class ArmContactScreen {
   struct GeomPair {
     int g1 = 0, g2 = 0;  ///< g1's type <= g2's type, as MuJoCo's table of functions wants them
     bool both_arm = false;
+    bool g1_arm = false;             ///< g1 is the arm's geom (both_arm: both are)
     mjfCollision collide = nullptr;  ///< MuJoCo's function for the two types, as mj_collision calls it
   };
   // The pairs of one moving body of the arm with one other body: tested as a whole against the body's

@@ -1,7 +1,7 @@
 // The arm's contact screen against mj_collision itself: over random arm configurations in the cells (many
 // against the table, a clamp, clutter or the arm itself, many near, many clear), with the checker's margins
 // and without, the screen finds a counted contact exactly where mj_collision does — and asks MuJoCo's
-// collision functions about far fewer pairs.
+// collision functions about far fewer pairs; the pair it names touching is one mj_collision counts.
 #include "sim/contact_screen.hpp"
 
 #include <gtest/gtest.h>
@@ -15,12 +15,26 @@ namespace {
 
 // What the collision checker counts of mj_collision's contacts: an arm geom against another geom, arm
 // against arm only when touching.
+bool counts(const MujocoWorld& world, const mjContact& con) {
+  const bool r1 = world.geom_label(con.geom1) == Label::kRobot,
+             r2 = world.geom_label(con.geom2) == Label::kRobot;
+  return (r1 || r2) && !(r1 && r2 && con.dist > 0);
+}
+
 bool counted_contact(const MujocoWorld& world, const mjData* d) {
+  for (int c = 0; c < d->ncon; ++c)
+    if (counts(world, d->contact[c])) return true;
+  return false;
+}
+
+// Whether mj_collision counted a contact between the arm's geom `arm` and `other` (in either order).
+bool counted_between(const MujocoWorld& world, const mjData* d, int arm, int other) {
+  if (world.geom_label(arm) != Label::kRobot) return false;
   for (int c = 0; c < d->ncon; ++c) {
     const mjContact& con = d->contact[c];
-    const bool r1 = world.geom_label(con.geom1) == Label::kRobot,
-               r2 = world.geom_label(con.geom2) == Label::kRobot;
-    if ((r1 || r2) && !(r1 && r2 && con.dist > 0)) return true;
+    if (counts(world, con) &&
+        ((con.geom1 == arm && con.geom2 == other) || (con.geom1 == other && con.geom2 == arm)))
+      return true;
   }
   return false;
 }
@@ -56,11 +70,18 @@ void expect_same_answers(const std::string& cell_file, const std::string& robot_
   // mj_collision's answer; the screen's must be the same.
   const auto ask = [&](const JointVector& q, const std::string& what) {
     world.set_joints(m, d.get(), q);
-    const bool screened_clear = screen.clear(m, d.get());
+    ArmContactScreen::Touch touch;
+    const bool screened_clear = screen.clear(m, d.get(), &touch);
     mj_collision(m, d.get());
     const bool contact = counted_contact(world, d.get());
     EXPECT_EQ(screened_clear, !contact)
         << cell_file << " " << robot_file << " margin " << margin_m << " " << what << ": " << q.transpose();
+    // The pair it names touches for mj_collision too, the arm's geom first.
+    if (!screened_clear) {
+      EXPECT_TRUE(counted_between(world, d.get(), touch.arm_geom, touch.other_geom))
+          << cell_file << " " << what << ": the screen named geoms " << touch.arm_geom << " and "
+          << touch.other_geom;
+    }
     (contact ? touching : clear) += 1;
     return contact;
   };
