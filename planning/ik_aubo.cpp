@@ -157,9 +157,10 @@ void AuboIk::solve_into(const Iso3& T_base_tip, double q6_reference, int only,
       if (std::abs(kappa) > 1.0 + 1e-9) continue;  // out of reach for this shoulder and wrist
       kappa = std::clamp(kappa, -1.0, 1.0);
       const bool elbow_singular = 1.0 - std::abs(kappa) < kNearSingular;
+      const double elbow_angle = std::acos(kappa), elbow_sine = std::sqrt(std::max(0.0, 1.0 - kappa * kappa));
       for (int i3 = 0; i3 < 2; ++i3) {
         if (only >= 0 && i3 != (only & 1)) continue;
-        const double q3 = elbow_theta0_ + (i3 == 0 ? -1.0 : 1.0) * std::acos(kappa);
+        const double q3 = elbow_theta0_ + (i3 == 0 ? -1.0 : 1.0) * elbow_angle;
         const Vec3 p3 = r_[2] + rot(w3, q3) * (r_[3] - r_[2]);
         double q2 = 0.0;
         angle_between(w_[1], p3 - r_[1], P4b - r_[1], q2);
@@ -173,7 +174,7 @@ void AuboIk::solve_into(const Iso3& T_base_tip, double q6_reference, int only,
         sol.branch = 4 * i1 + 2 * i5 + i3;
         sol.shoulder_margin = shoulder_sine;
         sol.wrist_margin = wrist_sine;
-        sol.elbow_margin = std::sqrt(std::max(0.0, 1.0 - kappa * kappa));
+        sol.elbow_margin = elbow_sine;
       }
     }
   }

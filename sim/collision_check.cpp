@@ -289,6 +289,7 @@ struct CollisionChecker::State {
   ModelPtr model;
   DataPtr data;
   std::optional<ArmContactScreen> screen;  ///< asked first: mj_collision only when it finds a contact
+  PartClearance::Hint hint;                ///< the part's nearest point at the last question
 };
 
 CollisionChecker::CollisionChecker(const MujocoWorld& world, double margin_m, double torch_clearance_m)
@@ -368,7 +369,8 @@ std::string CollisionChecker::operator()(const JointVector& q, bool welding) con
   }
   if (state_->part) {
     std::string geom;
-    if (state_->part->clearance(d, &geom) < (welding ? state_->weld_margin : state_->part_margin))
+    if (state_->part->clearance(d, &geom, &state_->hint) <
+        (welding ? state_->weld_margin : state_->part_margin))
       return geom + (welding ? " with the part while welding" : " with the part");
   }
   return "";
