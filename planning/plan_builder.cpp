@@ -47,13 +47,17 @@ Choice Builder::choose(const SeamGeometry& g, double s0, double s1, std::optiona
     std::array<double, 8> worst;
     worst.fill(std::numeric_limits<double>::infinity());
     std::array<JointVector, 8> last, first;
+    last.fill(q_);  // J6 where it is free, until branch 0 reaches a station
+    first.fill(q_);
+    std::array<IkSolution, 8> fresh;
     std::array<std::vector<std::pair<JointVector, bool>>, 8> stations_q;
     // Stations along the stretch, plus its approach (k = -1) and departure (k = stations + 1) poses.
     for (int k = -1; k <= stations + 1; ++k) {
       const Iso3 pose = k < 0          ? backed_off(SeamGeometry::tcp(at.front(), roll), set_.approach_m)
                         : k > stations ? backed_off(SeamGeometry::tcp(at.back(), roll), set_.approach_m)
                                        : SeamGeometry::tcp(at[static_cast<size_t>(k)], roll);
-      const auto sols = ik_.solve(pose, k < 0 ? q_[5] : last[0][5]);
+      const std::array<IkSolution, 8>& sols =
+          k <= 0 ? solve_start(pose, k < 0 ? q_[5] : last[0][5]) : (fresh = ik_.solve(pose, last[0][5]));
       for (int b = 0; b < 8; ++b) {
         const IkSolution& s = sols[static_cast<size_t>(b)];
         double m = s.valid && s.within_limits ? margin(s) : -1.0;
@@ -105,6 +109,16 @@ Choice Builder::choose(const SeamGeometry& g, double s0, double s1, std::optiona
     return {true, c.roll, c.branch, c.margin, in->second, in->first, out->first};
   }
   return Choice();
+}
+
+const std::array<IkSolution, 8>& Builder::solve_start(const Iso3& pose, double q6_reference) const {
+  std::array<double, 13> key;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) key[static_cast<size_t>(4 * r + c)] = pose.matrix()(r, c);
+  key[12] = q6_reference;
+  if (const auto it = start_ik_.find(key); it != start_ik_.end()) return it->second;
+  if (start_ik_.size() > 4096) start_ik_.clear();
+  return start_ik_.emplace(key, ik_.solve(pose, q6_reference)).first->second;
 }
 
 bool Builder::clear_along(const SeamGeometry& g, double s0, double s1, double roll, int b,

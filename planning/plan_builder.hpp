@@ -81,6 +81,10 @@ class Builder {
   Choice choose(const SeamGeometry& g, double s0, double s1, std::optional<double> fixed_roll,
                 int prefer_branch) const;
 
+  // Every IK solution of `pose`, remembered: the stretches a seam's split tries from one start share their
+  // first station and approach pose (the same pose, the same reference), for every roll.
+  const std::array<IkSolution, 8>& solve_start(const Iso3& pose, double q6_reference) const;
+
   // Whether what the arm passes through welding the stretch [s0, s1] on branch `b` at `roll` is clear of the
   // cell: poses of the seam (IK, not joint-space interpolation: round a tube the wrist swings a quarter
   // radian from one 12 mm station to the next, and the arm does not move straight in joint space) at most
@@ -173,6 +177,8 @@ class Builder {
   double slow_ = 1.0;  ///< duration factor of the piece being tried (checked())
   int branch_ = 0;     ///< IK branch of the seam being welded
   mutable std::unordered_map<ConfigKey, std::string, ConfigKeyHash> answers_;  ///< the cell's, by q
+  /// IK at stretches' starts (solve_start), by the pose's 12 numbers and the J6 reference.
+  mutable std::unordered_map<std::array<double, 13>, std::array<IkSolution, 8>, ConfigKeyHash> start_ik_;
   /// The cell's answer for the welding between two configurations of one seam (clear_along), by both.
   mutable std::unordered_map<std::array<double, 12>, std::string, ConfigKeyHash> along_answers_;
   /// Stations of a stretch at most this far apart on the seam; also clear_along's grid.
