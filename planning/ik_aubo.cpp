@@ -100,19 +100,20 @@ AuboIk::AuboIk(const RobotModel& robot, const std::string& tip) {
   upper_ = robot.upper();
 }
 
-std::array<IkSolution, 8> AuboIk::solve(const Iso3& T_base_tip, double q6_reference) const {
+std::array<IkSolution, 8> AuboIk::solve(const Iso3& T_base_tip, double q6_reference,
+                                        unsigned branches) const {
   std::array<IkSolution, 8> out;
-  solve_into(T_base_tip, q6_reference, -1, out);
+  solve_into(T_base_tip, q6_reference, branches, out);
   return out;
 }
 
 IkSolution AuboIk::solve_branch(const Iso3& T_base_tip, int branch, double q6_reference) const {
   std::array<IkSolution, 8> out;
-  solve_into(T_base_tip, q6_reference, branch, out);
+  solve_into(T_base_tip, q6_reference, 1u << branch, out);
   return out[static_cast<size_t>(branch)];
 }
 
-void AuboIk::solve_into(const Iso3& T_base_tip, double q6_reference, int only,
+void AuboIk::solve_into(const Iso3& T_base_tip, double q6_reference, unsigned branches,
                         std::array<IkSolution, 8>& out) const {
   const Mat3& R = T_base_tip.linear();
   // The wrist centre, where the J5 and J6 axes meet: fixed in the tip frame.
@@ -127,7 +128,7 @@ void AuboIk::solve_into(const Iso3& T_base_tip, double q6_reference, int only,
 
   const Vec3 w6_now = R * M_.linear().transpose() * w_[5];  // J6 axis at the target
   for (int i1 = 0; i1 < 2; ++i1) {
-    if (only >= 0 && i1 != only >> 2) continue;
+    if (!(branches & (0xFu << (4 * i1)))) continue;
     const double q1 = q1s[i1];
     const Mat3 R1 = rot(w_[0], q1);
     // J5: (Rot(w5, q5) w6) . wp = (R1 wp) . w6_now.
@@ -137,7 +138,7 @@ void AuboIk::solve_into(const Iso3& T_base_tip, double q6_reference, int only,
       continue;
     const Mat3 N = R1.transpose() * R * M_.linear().transpose();  // = R234 R5 R6
     for (int i5 = 0; i5 < 2; ++i5) {
-      if (only >= 0 && i5 != ((only >> 1) & 1)) continue;
+      if (!(branches & (0x3u << (4 * i1 + 2 * i5)))) continue;
       const double q5 = q5s[i5];
       const Mat3 R5 = rot(w_[4], q5);
       // J6 turns N^T wp onto R5^T wp; at the wrist singularity both lie on the J6 axis and J6 is free.
@@ -159,7 +160,7 @@ void AuboIk::solve_into(const Iso3& T_base_tip, double q6_reference, int only,
       const bool elbow_singular = 1.0 - std::abs(kappa) < kNearSingular;
       const double elbow_angle = std::acos(kappa), elbow_sine = std::sqrt(std::max(0.0, 1.0 - kappa * kappa));
       for (int i3 = 0; i3 < 2; ++i3) {
-        if (only >= 0 && i3 != (only & 1)) continue;
+        if (!(branches & (1u << (4 * i1 + 2 * i5 + i3)))) continue;
         const double q3 = elbow_theta0_ + (i3 == 0 ? -1.0 : 1.0) * elbow_angle;
         const Vec3 p3 = r_[2] + rot(w3, q3) * (r_[3] - r_[2]);
         double q2 = 0.0;

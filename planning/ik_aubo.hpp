@@ -30,7 +30,9 @@ class AuboIk {
   AuboIk(const RobotModel& robot, const std::string& tip);
 
   /// Every solution for T_base_tip. `q6_reference` is J6 where it is free (at the wrist singularity).
-  std::array<IkSolution, 8> solve(const Iso3& T_base_tip, double q6_reference = 0.0) const;
+  /// `branches`: a bit per branch wanted (the others are left invalid, their work not done).
+  std::array<IkSolution, 8> solve(const Iso3& T_base_tip, double q6_reference = 0.0,
+                                  unsigned branches = 0xFFu) const;
 
   /// One branch only (0..7), about a quarter of the work of solve().
   IkSolution solve_branch(const Iso3& T_base_tip, int branch, double q6_reference = 0.0) const;
@@ -39,7 +41,7 @@ class AuboIk {
   bool nearest(const Iso3& T_base_tip, const JointVector& q_near, JointVector& q) const;
 
  private:
-  void solve_into(const Iso3& T_base_tip, double q6_reference, int only,
+  void solve_into(const Iso3& T_base_tip, double q6_reference, unsigned branches,
                   std::array<IkSolution, 8>& out) const;
   void polish(const Iso3& T_target, JointVector& q) const;
 

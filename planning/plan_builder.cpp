@@ -56,8 +56,12 @@ Choice Builder::choose(const SeamGeometry& g, double s0, double s1, std::optiona
       const Iso3 pose = k < 0          ? backed_off(SeamGeometry::tcp(at.front(), roll), set_.approach_m)
                         : k > stations ? backed_off(SeamGeometry::tcp(at.back(), roll), set_.approach_m)
                                        : SeamGeometry::tcp(at[static_cast<size_t>(k)], roll);
-      const std::array<IkSolution, 8>& sols =
-          k <= 0 ? solve_start(pose, k < 0 ? q_[5] : last[0][5]) : (fresh = ik_.solve(pose, last[0][5]));
+      // Past the start, only the branches still reaching (and branch 0, whose J6 is the next reference).
+      unsigned reaching = 1u;
+      for (int b = 1; b < 8; ++b)
+        if (worst[static_cast<size_t>(b)] >= 0) reaching |= 1u << b;
+      const std::array<IkSolution, 8>& sols = k <= 0 ? solve_start(pose, k < 0 ? q_[5] : last[0][5])
+                                                     : (fresh = ik_.solve(pose, last[0][5], reaching));
       for (int b = 0; b < 8; ++b) {
         const IkSolution& s = sols[static_cast<size_t>(b)];
         double m = s.valid && s.within_limits ? margin(s) : -1.0;

@@ -120,6 +120,30 @@ TEST(AuboIk, OneBranchEqualsThatBranchOfAll) {
   }
 }
 
+TEST(AuboIk, TheBranchesAskedForEqualThoseOfAllAndNoOthersAreGiven) {
+  const RobotModel robot = RobotModel::load(test::repo("scenes/robots/aubo_i5.urdf"));
+  const AuboIk ik(robot, "tcp");
+  std::mt19937_64 rng(10);
+  for (int k = 0; k < 2000; ++k) {
+    const Iso3 T = robot.forward_kinematics(test::random_q(robot, rng), robot.require_link("tcp"));
+    const auto all = ik.solve(T, -0.4);
+    const unsigned wanted = static_cast<unsigned>(rng() & 0xFFu);
+    const auto some = ik.solve(T, -0.4, wanted);
+    for (int b = 0; b < 8; ++b) {
+      const IkSolution& s = some[static_cast<size_t>(b)];
+      if (!(wanted & (1u << b))) {
+        EXPECT_FALSE(s.valid) << "branch " << b << " was not asked for";
+        continue;
+      }
+      ASSERT_EQ(s.valid, all[static_cast<size_t>(b)].valid);
+      if (s.valid) {
+        EXPECT_EQ(s.q, all[static_cast<size_t>(b)].q);
+        EXPECT_EQ(s.elbow_margin, all[static_cast<size_t>(b)].elbow_margin);
+      }
+    }
+  }
+}
+
 TEST(AuboIk, UnreachablePosesHaveNoSolution) {
   const RobotModel robot = RobotModel::load(test::repo("scenes/robots/aubo_i5.urdf"));
   const AuboIk ik(robot, "flange");
