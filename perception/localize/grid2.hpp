@@ -17,11 +17,16 @@ struct Grid2 {
   std::vector<uint8_t> on;
   std::vector<float> value;  ///< per cell: the model's top height (footprint), the lowest point (table)
 
-  void reset(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi, double c) {
+  /// The cells over [lo, hi], without `on` and `value` (for a grid whose cells hold something else).
+  void shape(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi, double c) {
     cell = c;
     origin = lo;
     nx = static_cast<int>(std::ceil((hi.x() - lo.x()) / c)) + 1;
     ny = static_cast<int>(std::ceil((hi.y() - lo.y()) / c)) + 1;
+  }
+  size_t cells() const { return static_cast<size_t>(nx) * static_cast<size_t>(ny); }
+  void reset(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi, double c) {
+    shape(lo, hi, c);
     on.assign(static_cast<size_t>(nx) * static_cast<size_t>(ny), 0);
     value.assign(on.size(), std::numeric_limits<float>::infinity());
   }

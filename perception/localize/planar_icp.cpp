@@ -19,7 +19,7 @@ constexpr int kMaxDisagreeing = 4;      // an edge with more than 1/this of its 
 // edge found (along the outward normal) to the (yaw, x, y) normal equations.
 int add_outline_terms(const ScenePoints& c, const PartModel& m, const Iso3& P, const PlanarIcpSetting& s,
                       Mat3& A, Vec3& b) {
-  if (m.outline.empty() || c.low_sum.empty()) return 0;
+  if (m.outline.empty() || !c.low_sum) return 0;
   const Iso3 T = P.inverse();  // part -> table
   int used = 0;
   const int steps = s.outline_steps;

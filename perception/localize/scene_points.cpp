@@ -31,10 +31,10 @@ ScenePoints scene_points(const std::vector<Vec3>& scan_base, const std::vector<V
   // Object points above the table (table frame), and the points near the table by cell.
   std::vector<Vec3> above;
   out.outline_max_top = kOutlineTopCuts * limits.height_cut_m;
-  out.low.reset(Eigen::Vector2d::Constant(-reach_radius_m), Eigen::Vector2d::Constant(reach_radius_m),
+  out.low.shape(Eigen::Vector2d::Constant(-reach_radius_m), Eigen::Vector2d::Constant(reach_radius_m),
                 s.low_cell_m);
-  out.low_sum.assign(out.low.on.size(), 0.0f);
-  out.low_count.assign(out.low.on.size(), 0);
+  out.low_sum = zeroed_slots<float>(out.low.cells());
+  out.low_count = zeroed_slots<uint16_t>(out.low.cells());
   const double low_top = out.outline_max_top + kBelowTableSigmas * noise;
   // With the sensor's position for every point, the fine refinement casts the rays themselves against the
   // model (a voxel's centroid would mix the two sides of a thin wall, and a point's own position, thrown by

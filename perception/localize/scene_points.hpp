@@ -11,6 +11,7 @@
 
 #include "perception/localize/grid2.hpp"
 #include "perception/localize/point_tree.hpp"
+#include "perception/localize/zeroed_slots.hpp"
 
 namespace weldtwin {
 
@@ -58,9 +59,9 @@ struct ScenePoints {
   std::vector<ScanPoint> icp_points;  ///< objects high enough to be told from the table, with centroids
   // Points near the table (table frame), averaged per cell: where the outline of a part too low for its walls
   // to be told from the table is read from the change of height across it, and where the table is seen.
-  Grid2 low;
-  std::vector<float> low_sum;
-  std::vector<uint16_t> low_count;
+  Grid2 low;                   ///< its cells only (`on` and `value` unused): the sums and counts below
+  ZeroedSlots<float> low_sum;  ///< per cell of `low`; null when no scene was sorted
+  ZeroedSlots<uint16_t> low_count;
   double outline_max_top = 0.0;  ///< outline samples of parts at most this high are read this way [m]
   std::vector<uint32_t>
       ray_points;  ///< scan indices of every point near or above the table, when the rays are known
