@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <random>
 #include <thread>
 
@@ -109,6 +110,37 @@ TEST(ClosestGrid, ThreadsFillingTheSameCellsAgree) {
   std::vector<std::thread> pool;
   for (unsigned t = 0; t < 4; ++t) pool.emplace_back([&] { expect_same_answers(rays, grid, 7, 0.06); });
   for (std::thread& th : pool) th.join();
+}
+
+// The slots the lazily filled grids live in: all zero at first, whatever their size (small pages, or 2 MB
+// ones from their boundary), holding what is written, and given back when dropped.
+TEST(ZeroedSlots, StartAtZeroHoldWhatIsWrittenAndAreGivenBack) {
+  for (size_t n : {size_t{1}, size_t{1000}, (kHugePageArray_bytes / sizeof(int)) - 1,
+                   3 * kHugePageArray_bytes / sizeof(int) + 7}) {
+    ZeroedSlots<int> slots = zeroed_slots<int>(n);
+    ASSERT_TRUE(slots) << n;
+    for (size_t i = 0; i < n; i += 997) ASSERT_EQ(slots[i], 0) << n << " slot " << i;
+    EXPECT_EQ(slots[n - 1], 0) << n;
+    if (n * sizeof(int) >= kHugePageArray_bytes) {
+      EXPECT_EQ(reinterpret_cast<uintptr_t>(slots.get()) % (size_t{2} << 20), 0u) << "a 2 MB page boundary";
+    }
+    for (size_t i = 0; i < n; i += 4099) slots[i] = static_cast<int>(i % 1000) + 1;
+    slots[n - 1] = -5;
+    for (size_t i = 0; i + 1 < n; i += 4099) ASSERT_EQ(slots[i], static_cast<int>(i % 1000) + 1);
+    EXPECT_EQ(slots[n - 1], -5);
+  }
+  const auto mapped_bytes = [] {  // the process's address space (the first field of /proc/self/statm)
+    std::ifstream statm("/proc/self/statm");
+    size_t pages = 0;
+    statm >> pages;
+    return pages * 4096;
+  };
+  const size_t before = mapped_bytes();
+  for (int k = 0; k < 200; ++k) {  // 200 x 64 MB: 12.8 GB of address space if none were given back
+    ZeroedSlots<uint64_t> big = zeroed_slots<uint64_t>(size_t{8} << 20);
+    big[size_t{8} << 19] = 1;
+  }
+  EXPECT_LT(mapped_bytes(), before + (size_t{256} << 20));
 }
 
 }  // namespace
