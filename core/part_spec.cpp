@@ -43,15 +43,11 @@ Vec3 Seam::point_at(double s) const {
 }
 
 Vec3 Seam::direction_at(double s) const {
-  if (kind == Kind::kLine) return (end - start).normalized();
-  const Vec3 r = point_at(s) - center;
-  return (sweep_rad >= 0 ? 1.0 : -1.0) * axis.cross(r).normalized();
+  return frame_at(s).direction;
 }
 
 Vec3 Seam::wall_normal_at(double s) const {
-  if (!wall_normal_radial) return wall_normal;
-  Vec3 r = point_at(s) - center;
-  return (r - r.dot(axis) * axis).normalized();
+  return frame_at(s).wall_normal;
 }
 
 Seam::Frame Seam::frame_at(double s) const {

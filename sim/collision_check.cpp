@@ -288,7 +288,7 @@ struct CollisionChecker::State {
   double part_margin = 0.0, weld_margin = 0.0;
   ModelPtr model;
   DataPtr data;
-  std::optional<ArmContactScreen> screen;  ///< asked first: mj_collision only when it finds a contact
+  std::optional<ArmContactScreen> screen;  ///< asked first: mj_collision only for a model it does not screen
   PartClearance::Hint hint;                ///< the part's nearest point at the last question
 };
 

@@ -27,7 +27,7 @@ struct Grid2 {
   size_t cells() const { return static_cast<size_t>(nx) * static_cast<size_t>(ny); }
   void reset(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi, double c) {
     shape(lo, hi, c);
-    on.assign(static_cast<size_t>(nx) * static_cast<size_t>(ny), 0);
+    on.assign(cells(), 0);
     value.assign(on.size(), std::numeric_limits<float>::infinity());
   }
   /// The cell holding (x, y), or -1 outside the grid.

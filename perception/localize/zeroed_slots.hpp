@@ -31,13 +31,13 @@ struct FreeSlots {
 template <class T>
 using ZeroedSlots = std::unique_ptr<T[], FreeSlots>;
 
-/// Arrays at least this large are given 2 MB pages where the system allows.
+/// Arrays at least this large (one huge page) are given 2 MB pages where the system allows.
 constexpr size_t kHugePageArray_bytes = size_t{2} << 20;
 
 /// `n` slots of T, all bits zero (T: an integer or a pointer); throws std::bad_alloc when the system refuses.
 template <class T>
 ZeroedSlots<T> zeroed_slots(size_t n) {
-  constexpr size_t kHuge = size_t{2} << 20;
+  constexpr size_t kHuge = kHugePageArray_bytes;  // the huge page's size and alignment
   if (n == 0) n = 1;
   if (n > SIZE_MAX / sizeof(T) - kHuge) throw std::bad_alloc();
   const size_t want = n * sizeof(T);
