@@ -23,16 +23,13 @@ ClosestGrid::ClosestGrid(const MeshRays& rays, const Vec3& lo, const Vec3& hi, c
   nx_ = static_cast<long>(extent.x() / cell_) + 1;
   ny_ = static_cast<long>(extent.y() / cell_) + 1;
   nz_ = static_cast<long>(extent.z() / cell_) + 1;
-  const size_t n = static_cast<size_t>(nx_) * static_cast<size_t>(ny_) * static_cast<size_t>(nz_);
-  slots_ = zeroed_slots<Cell*>(n);
+  slots_ = BrickSlots<Cell*>(nx_, ny_, nz_);
 }
 
 ClosestGrid::~ClosestGrid() = default;
 
 const ClosestGrid::Cell* ClosestGrid::cell_at(long ix, long iy, long iz) const {
-  Cell** slot = &slots_[(static_cast<size_t>(iz) * static_cast<size_t>(ny_) + static_cast<size_t>(iy)) *
-                            static_cast<size_t>(nx_) +
-                        static_cast<size_t>(ix)];
+  Cell** slot = slots_.slot(ix, iy, iz);
   if (const Cell* known = __atomic_load_n(slot, __ATOMIC_ACQUIRE)) return known;
   // The nearest point of any point x of the cell is at most |x - c| + d(c) <= h + d(c) from x, so within
   // d(c) + 2h of the centre c: only faces that near can hold it.

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "core/geometry.hpp"
-#include "perception/localize/zeroed_slots.hpp"
+#include "perception/localize/brick_slots.hpp"
 #include "perception/mesh_rays.hpp"
 
 namespace weldtwin {
@@ -50,7 +50,7 @@ class ClosestGrid {
   Vec3 origin_ = Vec3::Zero();
   double cell_ = 0.0, half_diagonal_ = 0.0, far_ = 0.0;
   long nx_ = 0, ny_ = 0, nz_ = 0;
-  ZeroedSlots<Cell*> slots_;  ///< null until asked (zeroed pages: only cells asked are touched)
+  mutable BrickSlots<Cell*> slots_;  ///< null until asked (only the bricks of cells asked about are made)
   mutable std::mutex made_mutex_;
   mutable std::vector<std::unique_ptr<Cell>> made_;  ///< the cells filled so far (they own their memory)
 };

@@ -74,9 +74,7 @@ int PartModel::nearest(const Vec3& p) {
   if (p.x() < cache_origin.x() || p.y() < cache_origin.y() || p.z() < cache_origin.z() || ix >= cx ||
       iy >= cy || iz >= cz)
     return -1;
-  int* slot = &cache[(static_cast<size_t>(iz) * static_cast<size_t>(cy) + static_cast<size_t>(iy)) *
-                         static_cast<size_t>(cx) +
-                     static_cast<size_t>(ix)];
+  int* slot = cache.slot(ix, iy, iz);
   const int stored = __atomic_load_n(slot, __ATOMIC_RELAXED);
   if (stored != 0) return stored - 2;
   const Vec3 c =
@@ -269,9 +267,7 @@ void build_part_model(const Mesh& mesh, double min_z, const PartModelSetting& s,
   model.cx = static_cast<int>(ext.x() / model.cache_cell) + 1;
   model.cy = static_cast<int>(ext.y() / model.cache_cell) + 1;
   model.cz = static_cast<int>(ext.z() / model.cache_cell) + 1;
-  const size_t slots =
-      static_cast<size_t>(model.cx) * static_cast<size_t>(model.cy) * static_cast<size_t>(model.cz);
-  model.cache = zeroed_slots<int>(slots);
+  model.cache = BrickSlots<int>(model.cx, model.cy, model.cz);
 }
 
 }  // namespace weldtwin

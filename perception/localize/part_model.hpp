@@ -8,10 +8,10 @@
 #include <memory>
 #include <vector>
 
+#include "perception/localize/brick_slots.hpp"
 #include "perception/localize/closest_grid.hpp"
 #include "perception/localize/grid2.hpp"
 #include "perception/localize/point_tree.hpp"
-#include "perception/localize/zeroed_slots.hpp"
 #include "perception/mesh_io.hpp"
 #include "perception/mesh_rays.hpp"
 
@@ -82,8 +82,8 @@ struct PartModel {
   Vec3 cache_origin = Vec3::Zero();
   int cx = 0, cy = 0, cz = 0;
   /// The grid's slots: 0 not asked yet, else the answer + 2 (the grid spans tens of megabytes, ICP asks
-  /// about a thin shell of it: zeroed_slots.hpp).
-  ZeroedSlots<int> cache;
+  /// about a thin shell of it: brick_slots.hpp).
+  BrickSlots<int> cache;
 };
 
 /// Builds the model of `mesh` lifted by -min_z (faces turned outwards first: a CAD file's winding is not to

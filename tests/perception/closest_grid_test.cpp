@@ -8,6 +8,7 @@
 #include <cmath>
 #include <fstream>
 #include <random>
+#include <set>
 #include <thread>
 
 #include "tests/support/test_meshes.hpp"
@@ -141,6 +142,63 @@ TEST(ZeroedSlots, StartAtZeroHoldWhatIsWrittenAndAreGivenBack) {
     big[size_t{8} << 19] = 1;
   }
   EXPECT_LT(mapped_bytes(), before + (size_t{256} << 20));
+}
+
+// The bricks the lookup grids keep their slots in: zero until written, each cell its own slot (neighbours
+// across a brick's faces too), only the bricks asked about made, and one brick per place whoever asks first.
+TEST(BrickSlots, CellsAreZeroUntilWrittenAndOnlyBricksAskedAboutAreMade) {
+  BrickSlots<int> slots(37, 5, 19);  // not a whole number of bricks along any axis
+  EXPECT_EQ(slots.bricks_made(), 0u);
+  for (long z = 0; z < 19; ++z)
+    for (long y = 0; y < 5; ++y)
+      for (long x = 0; x < 37; ++x) ASSERT_EQ(*slots.slot(x, y, z), 0) << x << " " << y << " " << z;
+  const size_t all = slots.bricks_made();
+  EXPECT_EQ(all, static_cast<size_t>(((37 + 3) / 4) * ((5 + 3) / 4) * ((19 + 3) / 4)));
+  for (long z = 0; z < 19; ++z)
+    for (long y = 0; y < 5; ++y)
+      for (long x = 0; x < 37; ++x) *slots.slot(x, y, z) = static_cast<int>(1 + x + 37 * (y + 5 * z));
+  for (long z = 0; z < 19; ++z)
+    for (long y = 0; y < 5; ++y)
+      for (long x = 0; x < 37; ++x) ASSERT_EQ(*slots.slot(x, y, z), 1 + x + 37 * (y + 5 * z));
+  EXPECT_EQ(slots.bricks_made(), all);
+
+  BrickSlots<void*> sparse(1000, 1000, 1000);  // 1e9 cells: only what is asked about is made
+  *sparse.slot(999, 0, 234) = &slots;
+  EXPECT_EQ(sparse.bricks_made(), 1u);
+  EXPECT_EQ(*sparse.slot(999, 0, 234), &slots);
+  EXPECT_EQ(*sparse.slot(998, 1, 235), nullptr);  // the same brick, another cell
+  EXPECT_EQ(sparse.bricks_made(), 1u);
+
+  // More bricks than a 2 MB chunk holds (4096 of 64 8-byte slots): every cell still its own.
+  BrickSlots<uint64_t> many(256, 256, 256);
+  for (long z = 0; z < 256; z += 4)
+    for (long y = 0; y < 256; y += 16)
+      for (long x = 0; x < 256; x += 8)
+        *many.slot(x, y, z) = static_cast<uint64_t>(1 + x + 256 * (y + 256 * z));
+  EXPECT_EQ(many.bricks_made(), 64u * 16u * 32u);
+  for (long z = 0; z < 256; z += 4)
+    for (long y = 0; y < 256; y += 16)
+      for (long x = 0; x < 256; x += 8) {
+        ASSERT_EQ(*many.slot(x, y, z), static_cast<uint64_t>(1 + x + 256 * (y + 256 * z)));
+        ASSERT_EQ(*many.slot(x + 1, y, z), 0u);
+      }
+}
+
+TEST(BrickSlots, ThreadsAskingTheSameCellsShareTheirBricks) {
+  BrickSlots<int> slots(64, 64, 64);
+  std::vector<std::thread> pool;
+  for (int t = 0; t < 4; ++t)
+    pool.emplace_back([&] {
+      for (long z = 0; z < 64; ++z)
+        for (long x = 0; x < 64; ++x) __atomic_fetch_add(slots.slot(x, z % 7, z), 1, __ATOMIC_RELAXED);
+    });
+  for (std::thread& th : pool) th.join();
+  std::set<long> bricks;  // the 4-cell cubes asked about
+  for (long z = 0; z < 64; ++z)
+    for (long x = 0; x < 64; ++x) bricks.insert(((z / 4) * 2 + (z % 7) / 4) * 16 + x / 4);
+  EXPECT_EQ(slots.bricks_made(), bricks.size());
+  for (long z = 0; z < 64; ++z)
+    for (long x = 0; x < 64; ++x) ASSERT_EQ(*slots.slot(x, z % 7, z), 4) << x << " " << z;
 }
 
 }  // namespace
