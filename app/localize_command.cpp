@@ -1,5 +1,6 @@
 #include "app/localize_command.hpp"
 
+#include <CLI/CLI.hpp>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -11,17 +12,61 @@
 #include "core/cloud_io.hpp"
 #include "core/error.hpp"
 #include "core/part_spec.hpp"
+#include "core/scenes.hpp"
 #include "perception/localizer.hpp"
 #include "perception/mesh_io.hpp"
 #include "perception/paper_localizer.hpp"
 #include "pipeline/outcome.hpp"
-#include "pipeline/weld_pipeline.hpp"
 
 namespace weldtwin {
 
-int run_localize(const LocalizeCommand& cmd) {
+void describe_weldtwin(CLI::App& app) {
+  app.description(
+      "weldtwin: find a clamped part with a wrist-mounted 2D LiDAR, plan its welds and check them in a "
+      "MuJoCo "
+      "digital twin of the cell.");
+  try {
+    app.footer("Scenes (the default cells, parts, robots and sweeps): " + scenes_dir() +
+               " (WELDTWIN_SCENES names another).");
+  } catch (const InputError& e) {
+    app.footer(std::string("Scenes: ") + e.what());
+  }
+}
+
+CLI::App* add_localize_command(CLI::App& app, LocalizeCommand& cmd) {
+  CLI::App* lc =
+      app.add_subcommand("localize", "Find the part (its mesh) in a base-frame cloud of a table scene");
+  lc->add_option("--model", cmd.model,
+                 "part mesh (STL, PLY, OBJ), part frame (default: the --part spec's model)");
+  lc->add_option("--scan", cmd.scan, "cloud (PCD or PLY), base frame")->required();
+  lc->add_option("--roi", cmd.roi_text, "optional crop box xmin,ymin,zmin,xmax,ymax,zmax [m] (not needed)");
+  lc->add_option("--units", cmd.units, "mesh units: m (default) or mm");
+  lc->add_option(
+      "--part", cmd.part,
+      "part spec (its model is the mesh sought, unless --model is given): poses that put the seams on "
+      "the same places are equivalent");
+  lc->add_option(
+        "--method", cmd.method,
+        "ours (default), or paper: the published PassThrough/RANSAC/point-to-point ICP pipeline, kept "
+        "as the baseline (it has no verdict and answers even when wrong)")
+      ->check(CLI::IsMember({"ours", "paper"}));
+  lc->add_option("--out", cmd.out, "pose JSON to write")->required();
+  lc->add_flag("-q,--quiet", cmd.quiet, "no progress line");
+  return lc;
+}
+
+int run_localize(LocalizeCommand cmd) {
   const auto started =
       std::chrono::steady_clock::now();  // the files' reading and the part's making count too
+  for (size_t a = 0, b; a < cmd.roi_text.size(); a = b + 1) {
+    b = cmd.roi_text.find(',', a);
+    if (b == std::string::npos) b = cmd.roi_text.size();
+    try {
+      cmd.roi.push_back(std::stod(cmd.roi_text.substr(a, b - a)));
+    } catch (const std::exception&) {
+      throw InputError("--roi: '" + cmd.roi_text + "' is not six numbers");
+    }
+  }
   if (cmd.model.empty() && cmd.part.empty())
     throw InputError("weldtwin localize: give the part: its spec (--part SPEC) or its mesh (--model MESH)");
   if (cmd.units != "m" && cmd.units != "mm") throw input_error(cmd.model, "--units must be m or mm");

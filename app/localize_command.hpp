@@ -1,8 +1,15 @@
 // `weldtwin localize`: find the part's mesh in a base-frame cloud of a table scene and write the pose JSON.
+// Its command line is defined here once, for both programs that take it: `weldtwin`, which answers it
+// without loading the cell's libraries (app/main.cpp), and `weldtwin-cell`, every command
+// (app/cell_main.cpp).
 #pragma once
 
 #include <string>
 #include <vector>
+
+namespace CLI {
+class App;
+}
 
 namespace weldtwin {
 
@@ -15,9 +22,17 @@ struct LocalizeCommand {
   std::string method = "ours";  ///< ours, or paper (the published pipeline, the benchmarks' baseline)
   std::string out;
   bool quiet = false;
+  std::string roi_text;  ///< --roi as given (six numbers, commas between), read into `roi` by run_localize
 };
 
-/// Returns 0 when found, 3 when the part is absent, ambiguous or poorly fitted (the JSON says why).
-int run_localize(const LocalizeCommand& cmd);
+/// Adds the `localize` subcommand and its options, landing in `cmd`.
+CLI::App* add_localize_command(CLI::App& app, LocalizeCommand& cmd);
+
+/// weldtwin's description and the footer naming its scenes, for the top level of either program.
+void describe_weldtwin(CLI::App& app);
+
+/// Returns 0 when found, 3 when the part is absent, ambiguous or poorly fitted (the JSON says why); throws
+/// InputError on a bad file or option.
+int run_localize(LocalizeCommand cmd);
 
 }  // namespace weldtwin

@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "core/parallel_for.hpp"
+#include "core/part_spec.hpp"
 #include "perception/localize/stats.hpp"
 #include "perception/localize/wall_side.hpp"
 
@@ -21,6 +22,11 @@ using Clock = std::chrono::steady_clock;
 constexpr size_t kMinModelSamples = 50;  // a mesh sampled to fewer points is too small to seek
 
 }  // namespace
+
+LocalizeSetting localize_setting_for(const PartSpec& part, LocalizeSetting base) {
+  base.verdict.weld_tolerance_m = part.weld_tolerance_m;
+  return base;
+}
 
 struct PreparedPart::Impl {
   PartModel model;

@@ -59,6 +59,11 @@ struct LocalizeSetting {
   Iso3 initial_guess = Iso3::Identity();
 };
 
+struct PartSpec;
+
+/// The localizer's setting for `part`: `base` with the part's weld tolerance as the bound a pose must meet.
+LocalizeSetting localize_setting_for(const PartSpec& part, LocalizeSetting base = {});
+
 struct PoseEstimate {
   bool found = false;
   std::string reason;  ///< why not found: no table, no part, poor fit, ambiguous

@@ -14,11 +14,6 @@ TwinScene::TwinScene(const TwinCell& c, const CellLayout& layout, const Iso3& mo
                      : c.robot.with_mount_offset(SweepOptions().lidar_link, mount_error)),
       world(c.cell, twin_part ? *twin_part : c.part, real_robot, layout) {}
 
-LocalizeSetting localize_setting_for(const PartSpec& part, LocalizeSetting base) {
-  base.verdict.weld_tolerance_m = part.weld_tolerance_m;
-  return base;
-}
-
 ReplayResult replay_in_twin(const TwinCell& cell, const TwinScene& twin, const WeldPlan& plan,
                             const Iso3& T_base_part_twin, ReplaySetting setting) {
   setting.max_seam_error_m = cell.part.weld_tolerance_m;

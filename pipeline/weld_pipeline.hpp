@@ -69,9 +69,6 @@ struct WeldPipelineHooks {
   std::function<void(PipelineStage, const WeldPipelineResult&)> stage_done;
 };
 
-/// The localizer's setting for `part`: `base` with the part's weld tolerance as the bound a pose must meet.
-LocalizeSetting localize_setting_for(const PartSpec& part, LocalizeSetting base = {});
-
 /// The replay stage alone: `plan` on the twin's arm, the part at `T_base_part_twin`, the seams judged with
 /// the part's weld tolerance (`setting`'s seam limit is replaced by it).
 ReplayResult replay_in_twin(const TwinCell& cell, const TwinScene& twin, const WeldPlan& plan,

@@ -15,7 +15,15 @@ exe=$prefix/usr/bin/weldtwin
 [ -x "$exe" ] || fail "no $exe after the install"
 [ -f "$prefix/usr/share/weldtwin/scenes/cells/default.yaml" ] || fail "the scenes were not installed"
 [ -L "$prefix/usr/share/weldtwin/scenes" ] && fail "the installed scenes are a link into the checkout"
-if grep -q -a -F "$source_dir" "$exe"; then fail "the installed binary holds the checkout's path $source_dir"; fi
+cell=$prefix/usr/bin/weldtwin-cell  # every command but localize, which weldtwin hands them to
+[ -x "$cell" ] || fail "no $cell after the install"
+for f in "$exe" "$cell"; do
+  if grep -q -a -F "$source_dir" "$f"; then fail "the installed $f holds the checkout's path $source_dir"; fi
+done
+# A localization loads what it needs, not the cell's simulator, planners and robot driver.
+for lib in libmujoco libompl librosbag; do
+  if ldd "$exe" | grep -q "$lib"; then fail "the installed weldtwin links $lib: localize would load it"; fi
+done
 
 # Run from the install tree, elsewhere, with the installed scenes only.
 cd "$prefix"

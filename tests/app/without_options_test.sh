@@ -11,10 +11,14 @@ trap 'rm -rf "$out"' EXIT
 failed=0
 fail() { echo "FAIL: $*"; failed=1; }
 
-# None of the optional libraries is linked.
-linked=$(ldd "$weldtwin")
-for lib in libompl librosbag libsqlite3 libzstd libOSMesa; do
-  if grep -q "$lib" <<<"$linked"; then fail "$weldtwin links $lib"; fi
+# None of the optional libraries is linked, by weldtwin or by weldtwin-cell beside it (every command but
+# localize).
+for program in "$weldtwin" "$(dirname "$weldtwin")/weldtwin-cell"; do
+  [ -x "$program" ] || fail "no $program"
+  linked=$(ldd "$program")
+  for lib in libompl librosbag libsqlite3 libzstd libOSMesa; do
+    if grep -q "$lib" <<<"$linked"; then fail "$program links $lib"; fi
+  done
 done
 
 # A ROS bag, read: exit 2, one line naming the bag and the option.
