@@ -45,6 +45,11 @@ nlohmann::json pose_to_json(const PoseEstimate& pose) {
   if (pose.rays_cast)  // what the bound allows for mixed pixels at the model's depth edges
     out["depth_edge_bias_mm"] =
         std::isfinite(pose.edge_shift_m) ? nlohmann::json(1e3 * pose.edge_shift_m) : nlohmann::json();
+  if (pose.rays_cast) {  // the sweep's passes, each fitted alone (pass_agreement.hpp)
+    out["passes_fitted"] = pose.passes_fitted;
+    out["pass_apart_mm"] = 1e3 * pose.pass_apart_m;
+    out["pass_excess_mm"] = 1e3 * pose.pass_excess_m;
+  }
   out["beyond_share"] = pose.beyond_share;
   out["beyond_extent_mm"] = 1e3 * pose.beyond_extent_m;
   if (!pose.rays_cast) {

@@ -188,15 +188,22 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
     // fit once more, with them marked); where the pose rests on them, it grows.
     PlanarIcpSetting marked = s.icp;
     marked.rays.mark_depth_edges = true;
-    const IcpResult f =
-        planar_icp(thinned(rays_near_pose(scene, scan_base, viewpoints_base, model, best.P, s.icp.rays),
-                           static_cast<size_t>(s.icp.fine_points)),
-                   scene, model, best.P, s.icp.fine_iterations, true, marked);
+    const std::vector<ScanPoint> rays =
+        rays_near_pose(scene, scan_base, viewpoints_base, model, best.P, s.icp.rays);
+    const IcpResult f = planar_icp(thinned(rays, static_cast<size_t>(s.icp.fine_points)), scene, model,
+                                   best.P, s.icp.fine_iterations, true, marked);
     const PoseUncertainty with_edges = pose_uncertainty(f.terms, s.uncertainty);
     out.edge_shift_m = std::max(0.0, seam_error_bound_m(with_edges, seams, s.uncertainty) -
                                          seam_error_bound_m(uncertainty, seams, s.uncertainty));
     out.edge_turn_rad =
         std::max(0.0, yaw_bound_rad(with_edges, s.uncertainty) - yaw_bound_rad(uncertainty, s.uncertainty));
+    // Whether the sweep's passes, each fitted alone, agree on where the seams are (a mount that is off
+    // moves each pass its own way).
+    const PassAgreement passes =
+        pass_agreement(rays, scene, model, best.P, seams, s.icp, s.uncertainty, s.passes);
+    out.passes_fitted = passes.passes;
+    out.pass_excess_m = passes.excess_m;
+    out.pass_apart_m = passes.apart_m;
   }
   stage("fit");
   out.covariance = uncertainty.covariance;
@@ -246,6 +253,8 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   verdict.see_through_share = out.see_through_share;
   verdict.max_see_through_share = s.score.max_see_through_share;
   verdict.reached_coverage = out.reached_coverage;
+  verdict.pass_excess_m = out.pass_excess_m;
+  verdict.pass_apart_m = out.pass_apart_m;
   verdict.beyond_at_part = out.beyond_at_part;
   const std::string reason = verdict_reason(verdict, s.verdict);
   out.found = reason.empty();

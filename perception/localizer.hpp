@@ -24,6 +24,7 @@
 #include "core/geometry.hpp"
 #include "perception/localize/part_extent.hpp"
 #include "perception/localize/part_model.hpp"
+#include "perception/localize/pass_agreement.hpp"
 #include "perception/localize/planar_icp.hpp"
 #include "perception/localize/pose_score.hpp"
 #include "perception/localize/pose_search.hpp"
@@ -53,6 +54,7 @@ struct LocalizeSetting {
   PoseUncertaintySetting uncertainty;
   WallSideSetting wall_side;
   RefineSetting refine;
+  PassAgreementSetting passes;
   int threads = 0;  ///< hypotheses refined side by side (0: all cores)
   // Optional rough pose (T_base_part) from elsewhere: refined first, beside the peaks of the global search.
   bool use_initial_guess = false;
@@ -109,6 +111,10 @@ struct PoseEstimate {
   /// yaw bound would grow is reported and not added: on eight passes it made the tube on its plate uncertain
   /// by 0.5-0.6 deg where it was 0.02-0.09 deg off (50 cells) [rad].
   double edge_shift_m = 0.0, edge_turn_rad = 0.0;
+  /// With viewpoints: the sweep's passes fitted alone (pass_agreement.hpp), and by how much the two that
+  /// disagree most put the seams farther apart than their 95 % bound allows [m] (and how far apart [m]).
+  int passes_fitted = 0;
+  double pass_excess_m = 0.0, pass_apart_m = 0.0;
   double seconds = 0.0;
   std::vector<std::pair<std::string, double>>
       stage_seconds;  ///< table, model (waiting for the part, built beside the table), objects, search,

@@ -145,6 +145,16 @@ std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
         1e3 * std::abs(in.level_offset_m), in.level_offset_m > 0 ? "above" : "below", 1e3 * tol);
     return buf;
   }
+  // Passes that disagree beyond their noise, by more than the tolerance: the cloud is not one rigid picture
+  // of the part, and a fit of all of it settles between them.
+  if (in.rays && in.pass_excess_m > tol) {
+    std::snprintf(buf, sizeof buf,
+                  "the sweep's passes disagree: fitted alone, two put the seams %.1f mm apart (%.1f mm more "
+                  "than their noise explains; tolerance %.1f mm): the LiDAR's mount is off (calibrate it: "
+                  "weldtwin calibrate), or the part moved during the sweep",
+                  1e3 * in.pass_apart_m, 1e3 * in.pass_excess_m, 1e3 * tol);
+    return buf;
+  }
   if (in.ambiguity >= s.ambiguity_ratio) return "ambiguous: a different pose fits almost as well";
   if (in.margin_llr < s.min_margin_llr && in.rival_offset_m > tol) {
     std::snprintf(buf, sizeof buf,

@@ -92,6 +92,10 @@ struct VerdictInput {
   double beyond_extent_m = 0.0;    ///< the longest stretch of the model's faces continued past its edges with
                                    ///< the scan on them [m] ...
   Vec3 beyond_at_part = Vec3::Zero();  ///< ... and its centre (part frame) [m]
+  /// With viewpoints: how much farther apart than their 95 % bound the two passes that disagree most put
+  /// the seams, each fitted alone [m] (pass_agreement.hpp) ...
+  double pass_excess_m = 0.0;
+  double pass_apart_m = 0.0;  ///< ... and how far apart [m]
 };
 
 /// Why the figures refuse the pose, or "" when they accept it: in words a person can act on.

@@ -2,12 +2,15 @@
 // (rays cast against the mesh and the table, Gaussian range noise, no viewpoints in the cloud). The Hough
 // search finds a known pose among its peaks; the surface fit converges from seeded perturbations; the
 // wall-side decision picks the right side of a thin wall seen from one side, started on the wrong one; and
-// the seam error bound covers at least its stated 95 % of the errors over seeded noise draws.
+// the seam error bound covers at least its stated 95 % of the errors over seeded noise draws; two passes
+// agree when they saw the part in one place and disagree when one of them is moved as a mount error moves it.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 #include "perception/localize/part_extent.hpp"
+#include "perception/localize/pass_agreement.hpp"
 #include "perception/localize/pose_search.hpp"
 #include "perception/localize/pose_uncertainty.hpp"
 #include "perception/localize/ray_matching.hpp"
@@ -454,6 +457,78 @@ TEST(LocalizeStages, RaysBesideADepthEdgeAreMarkedRaysOnAnOpenFaceAreNot) {
   EXPECT_TRUE(near[0]);
   EXPECT_TRUE(near[1]);
   for (size_t i = 2; i < rays.size(); ++i) EXPECT_FALSE(near[i]) << rays[i].origin.transpose();
+}
+
+// Two passes over the tube on its plate, one from each side, each recorded in order (the sensor moving
+// along its line), the second's points moved by `shift` as a LiDAR mount that is off moves a pass seen in
+// another attitude: the points, their viewpoints, the scene.
+struct TwoPassScene {
+  TwoPassScene(const Vec3& shift, uint64_t seed) : sc(tube_scene(0.0015, seed)) {
+    for (const double sensor_y : {-0.35, 0.55}) {
+      std::vector<Vec3> vp;
+      const std::vector<Vec3> pts = one_sided_scan(sc.mesh, sc.truth, sensor_y, 0.0015, seed + 7, &vp);
+      std::vector<size_t> order(pts.size());
+      for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+      std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return vp[a].x() < vp[b].x(); });
+      const Vec3 moved = sensor_y > 0 ? shift : Vec3::Zero();
+      for (size_t i : order) cloud.push_back(pts[i] + moved), vps.push_back(vp[i] + moved);
+    }
+    build_part_model(sc.mesh, 0.0, PartModelSetting(), 0, model);
+    const TablePlane table = find_table_plane(cloud);
+    EXPECT_TRUE(table.found);
+    NoiseLimits lim;
+    lim.noise_m = table.noise_m;
+    lim.trim_m = 2.5 * table.noise_m;
+    lim.inlier_m = std::max(0.0015, 2.5 * table.noise_m);
+    lim.edge_margin_m = 0.5 * table.noise_m;
+    lim.height_cut_m = std::max(0.005, 3.0 * table.noise_m);
+    scene = scene_points(cloud, vps, table.plane, lim, model.height, 1.2);
+    P0 = (scene.T_table_base * sc.truth).inverse();
+  }
+  PassAgreement agreement(const std::vector<Vec3>& points, const std::vector<Vec3>& viewpoints) {
+    const std::vector<ScanPoint> rays = rays_near_pose(scene, points, viewpoints, model, P0);
+    return pass_agreement(rays, scene, model, P0, sc.part.seam_points(0.001), PlanarIcpSetting(),
+                          PoseUncertaintySetting());
+  }
+  Scene sc;
+  std::vector<Vec3> cloud, vps;
+  PartModel model;
+  ScenePoints scene;
+  Iso3 P0 = Iso3::Identity();
+};
+
+TEST(LocalizeStages, PassesThatSawThePartInOnePlaceAgreeAPassMovedByTheMountDoesNot) {
+  const double tolerance = VerdictSetting().weld_tolerance_m;
+  TwoPassScene same(Vec3::Zero(), 21);
+  const PassAgreement a = same.agreement(same.cloud, same.vps);
+  EXPECT_EQ(a.passes, 2);
+  EXPECT_LT(a.excess_m, 0.25 * tolerance) << "apart " << a.apart_m;
+  // The second pass 3 mm off along the plate and 1.5 mm across it: the two put the seams that far apart,
+  // beyond their noise and the tolerance.
+  TwoPassScene off(Vec3(0.003, 0.0015, 0.0), 21);
+  const PassAgreement b = off.agreement(off.cloud, off.vps);
+  EXPECT_EQ(b.passes, 2);
+  EXPECT_GT(b.apart_m, 0.0025);
+  EXPECT_GT(b.excess_m, tolerance) << "apart " << b.apart_m;
+  // The same points in no recorded order: no pass to fit alone, nothing judged.
+  std::vector<size_t> order(off.cloud.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::shuffle(order.begin(), order.end(), std::mt19937_64(3));
+  std::vector<Vec3> shuffled, shuffled_vps;
+  for (size_t i : order) shuffled.push_back(off.cloud[i]), shuffled_vps.push_back(off.vps[i]);
+  const PassAgreement c = off.agreement(shuffled, shuffled_vps);
+  EXPECT_EQ(c.passes, 0);
+  EXPECT_EQ(c.excess_m, 0.0);
+  // The verdict: passes that disagree beyond their noise by more than the tolerance refuse the pose and say
+  // what to do; within it they do not.
+  VerdictInput in;
+  in.rays = true;
+  in.score.coverage = 1.0, in.score.inliers = in.score.region = 100;
+  in.pass_excess_m = b.excess_m, in.pass_apart_m = b.apart_m;
+  EXPECT_NE(verdict_reason(in).find("passes disagree"), std::string::npos) << verdict_reason(in);
+  EXPECT_NE(verdict_reason(in).find("weldtwin calibrate"), std::string::npos) << verdict_reason(in);
+  in.pass_excess_m = a.excess_m, in.pass_apart_m = a.apart_m;
+  EXPECT_EQ(verdict_reason(in), "");
 }
 
 }  // namespace
