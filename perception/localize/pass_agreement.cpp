@@ -32,11 +32,14 @@ PassAgreement pass_agreement(const std::vector<ScanPoint>& rays, const ScenePoin
     const IcpResult f = planar_icp(thinned(pass, static_cast<size_t>(s.max_rays)), scene, model, P,
                                    s.iterations, true, marked);
     const PoseUncertainty u = pose_uncertainty(f.terms, uncertainty);
-    // A pass that alone cannot tell the part's turn (one that saw a round tube and no edge to turn it by) is
-    // not compared: its fit may have turned anywhere, where the covariance, taken at the pose, no longer
-    // describes it.
+    // A pass that alone cannot tell the part's turn (one that saw a round tube and no edge to turn it by),
+    // or whose fit turned far from the pose (into another minimum: a square plate turned a quarter), is not
+    // compared: where the covariance, taken at the pose, no longer describes it.
+    const Iso3 moved = f.P * P.inverse();
+    const double turned = std::abs(std::atan2(moved.linear()(1, 0), moved.linear()(0, 0)));
     if (!u.ok || f.terms.size() < static_cast<size_t>(icp.min_correspondences) ||
-        !(std::sqrt(u.covariance(0, 0)) <= deg2rad(s.max_pass_turn_sd_deg)))
+        !(std::sqrt(u.covariance(0, 0)) <= deg2rad(s.max_pass_turn_sd_deg)) ||
+        !(turned <= deg2rad(s.max_pass_turn_deg)))
       continue;
     fitted.push_back({f.P, u.covariance});
   }

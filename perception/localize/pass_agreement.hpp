@@ -28,9 +28,11 @@ struct PassAgreementSetting {
   int min_rays = 400;   ///< a pass with fewer rays near the part is not fitted alone
   int max_rays = 3000;  ///< at most this many of a pass's rays are used (evenly thinned)
   int iterations = 10;  ///< of each pass's own fit, from the whole cloud's pose
-  /// A pass whose own fit leaves the part's turn uncertain by more than this (one standard deviation) is not
-  /// compared [deg]
-  double max_pass_turn_sd_deg = 2.0;
+  /// A pass whose own fit leaves the part's turn uncertain by more than this (one standard deviation) ...
+  double max_pass_turn_sd_deg = 2.0;  ///< [deg]
+  /// ... or turns it farther than this from the pose is not compared (a mount off by 1 deg turns a pass by
+  /// about as much) [deg]
+  double max_pass_turn_deg = 5.0;
 };
 
 struct PassAgreement {
