@@ -151,7 +151,7 @@ std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
     std::snprintf(buf, sizeof buf,
                   "the sweep's passes disagree: fitted alone, two put the seams %.1f mm apart (%.1f mm more "
                   "than their noise explains; tolerance %.1f mm): the LiDAR's mount is off (calibrate it: "
-                  "weldtwin calibrate), or the part moved during the sweep",
+                  "weldtwin calibrate), the part moved during the sweep, or it differs from its CAD",
                   1e3 * in.pass_apart_m, 1e3 * in.pass_excess_m, 1e3 * tol);
     return buf;
   }
