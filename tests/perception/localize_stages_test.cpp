@@ -85,19 +85,24 @@ struct Prepared {
   double noise = 0.0;
 };
 
+// The limits the localizer derives from the table's noise (its default settings).
+NoiseLimits limits_for(double noise) {
+  NoiseLimits lim;
+  lim.noise_m = noise;
+  lim.trim_m = 2.5 * noise;
+  lim.inlier_m = std::max(0.0015, 2.5 * noise);
+  lim.edge_margin_m = 0.5 * noise;
+  lim.height_cut_m = std::max(0.005, 3.0 * noise);
+  return lim;
+}
+
 Prepared prepare(const Scene& sc) {
   Prepared p;
   build_part_model(sc.mesh, 0.0, PartModelSetting(), 0, p.model);
   const TablePlane table = find_table_plane(sc.cloud);
   EXPECT_TRUE(table.found);
   p.noise = table.noise_m;
-  NoiseLimits lim;
-  lim.noise_m = p.noise;
-  lim.trim_m = 2.5 * p.noise;
-  lim.inlier_m = std::max(0.0015, 2.5 * p.noise);
-  lim.edge_margin_m = 0.5 * p.noise;
-  lim.height_cut_m = std::max(0.005, 3.0 * p.noise);
-  p.scene = scene_points(sc.cloud, {}, table.plane, lim, p.model.height, 1.2);
+  p.scene = scene_points(sc.cloud, {}, table.plane, limits_for(p.noise), p.model.height, 1.2);
   EXPECT_TRUE(p.scene.ok) << p.scene.reason;
   return p;
 }
@@ -476,13 +481,7 @@ struct TwoPassScene {
     build_part_model(sc.mesh, 0.0, PartModelSetting(), 0, model);
     const TablePlane table = find_table_plane(cloud);
     EXPECT_TRUE(table.found);
-    NoiseLimits lim;
-    lim.noise_m = table.noise_m;
-    lim.trim_m = 2.5 * table.noise_m;
-    lim.inlier_m = std::max(0.0015, 2.5 * table.noise_m);
-    lim.edge_margin_m = 0.5 * table.noise_m;
-    lim.height_cut_m = std::max(0.005, 3.0 * table.noise_m);
-    scene = scene_points(cloud, vps, table.plane, lim, model.height, 1.2);
+    scene = scene_points(cloud, vps, table.plane, limits_for(table.noise_m), model.height, 1.2);
     P0 = (scene.T_table_base * sc.truth).inverse();
   }
   PassAgreement agreement(const std::vector<Vec3>& points, const std::vector<Vec3>& viewpoints) {
