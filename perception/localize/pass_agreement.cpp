@@ -57,8 +57,7 @@ PassAgreement pass_agreement(const std::vector<ScanPoint>& rays, const ScenePoin
         const Eigen::Vector2d v = (D * p - p).head<2>();
         const double apart = v.norm();
         if (apart <= 0.0) continue;
-        Eigen::Matrix<double, 2, 3> J;  // a point's move under the perturbation (yaw, x, y)
-        J << -p.y(), 1.0, 0.0, p.x(), 0.0, 1.0;
+        const Eigen::Matrix<double, 2, 3> J = planar_move_jacobian(p);
         const Eigen::Vector2d along = v / apart;
         const double sd = std::sqrt(along.dot(J * C * J.transpose() * along));
         if (apart - scale * sd > out.excess_m) {

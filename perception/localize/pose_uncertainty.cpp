@@ -58,6 +58,12 @@ PoseUncertainty pose_uncertainty(const std::vector<ResidualTerm>& terms, const P
   return out;
 }
 
+Eigen::Matrix<double, 2, 3> planar_move_jacobian(const Vec3& p) {
+  Eigen::Matrix<double, 2, 3> J;
+  J << -p.y(), 1.0, 0.0, p.x(), 0.0, 1.0;
+  return J;
+}
+
 double seam_error_bound_m(const PoseUncertainty& u, const std::vector<Vec3>& points,
                           const PoseUncertaintySetting& s) {
   if (!u.ok) return std::numeric_limits<double>::infinity();
@@ -65,8 +71,7 @@ double seam_error_bound_m(const PoseUncertainty& u, const std::vector<Vec3>& poi
   // confidence ellipsoid xi^T Cov^-1 xi <= chi2 its largest move is sqrt(chi2 lambda_max(J Cov J^T)).
   double worst = 0.0;
   for (const Vec3& p : points) {
-    Eigen::Matrix<double, 2, 3> J;
-    J << -p.y(), 1.0, 0.0, p.x(), 0.0, 1.0;
+    const Eigen::Matrix<double, 2, 3> J = planar_move_jacobian(p);
     const Eigen::Matrix2d C = J * u.covariance * J.transpose();
     const double lmax = 0.5 * (C.trace() + std::sqrt(std::pow(C(0, 0) - C(1, 1), 2) + 4 * C(0, 1) * C(0, 1)));
     worst = std::max(worst, lmax);

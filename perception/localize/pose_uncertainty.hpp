@@ -45,6 +45,9 @@ struct PoseUncertainty {
 PoseUncertainty pose_uncertainty(const std::vector<ResidualTerm>& terms,
                                  const PoseUncertaintySetting& setting = {});
 
+/// How point p (part frame) moves under the perturbation (yaw, x, y): its (x, y) move per unit of each.
+Eigen::Matrix<double, 2, 3> planar_move_jacobian(const Vec3& p);
+
 /// The largest displacement of any of `points` (part frame) within the 95 % confidence region of `u`: a
 /// bound on the seam error when the points are the seams [m]. +inf when `u` is not ok.
 double seam_error_bound_m(const PoseUncertainty& u, const std::vector<Vec3>& points,
