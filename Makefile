@@ -37,13 +37,16 @@ test: build
 # at ten times the cost (run_<cell>: ten weldtwin runs each; the examples; the browser test; the cluster
 # tests; the install tree's run and run-against-bench agreement, whose stages weld_pipeline_test runs in
 # process) and of the instrumentation of the three files that instantiate PCL's templates
-# (perception/CMakeLists.txt); every reader's test runs.
+# (perception/CMakeLists.txt); every reader's test runs. intercept_tls_get_addr=0: the runtime of gcc 12 (and
+# of LLVM up to 16) takes a thread-local block that malloc happened to place 16 bytes past a 4 kB boundary for
+# a pre-2.25 glibc header and reads the words before it; the leak check's thread-stopping tracer then dies
+# ("Tracer caught signal 11") on the way out of a process that had no leak, about one run in a few hundred.
 SANITIZE_SKIP ?= ^(run_|example_|report_browser_test|cluster_bench_|install_test|pipeline_agreement_test)
 test-sanitize: setup
 	@cmake -S . -B $(BUILD)-sanitize -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" \
 	  -DCMAKE_C_FLAGS_DEBUG="-O1 -g1" -DWELDTWIN_SANITIZE=ON -DWELDTWIN_BUILD_BENCHMARKS=OFF >/dev/null
 	@CCACHE_NOHASHDIR=1 cmake --build $(BUILD)-sanitize -j$(JOBS)
-	@cd $(BUILD)-sanitize && ASAN_OPTIONS=detect_leaks=1:handle_segv=0:detect_stack_use_after_return=0 \
+	@cd $(BUILD)-sanitize && ASAN_OPTIONS=detect_leaks=1:handle_segv=0:detect_stack_use_after_return=0:intercept_tls_get_addr=0 \
 	  LSAN_OPTIONS=suppressions=$(CURDIR)/tests/sanitize/lsan.supp:print_suppressions=0 \
 	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 ctest --output-on-failure -j$(JOBS) -E '$(SANITIZE_SKIP)'
 
