@@ -44,6 +44,12 @@ class PointTree {
     d2 = within.best;
     return within.index;
   }
+  /// nearest()'s answer, to the tie, sought first within `likely_m` (where the nearest point usually is: the
+  /// search prunes more) and in the whole tree only when none is that near.
+  int nearest_likely_within(const Vec3& q, double likely_m, double& d2) const {
+    const int k = nearest_within(q, likely_m, d2);
+    return k >= 0 ? k : nearest(q, d2);
+  }
   const std::vector<Vec3>& points() const { return data_->pts; }
 
  private:

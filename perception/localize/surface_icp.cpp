@@ -16,9 +16,10 @@ constexpr double kLevelNormalZ = 0.95;   // ... this steep, on a level face
 // -log of how likely a scan point lies on the face at `at` (outward `normal`), by the view score of the
 // model sample there (a sample of the same face: its normal agrees), relative to the best-seen faces.
 double view_prior_nats(const PartModel& m, const Vec3& at, const Vec3& normal, const SurfaceIcpSetting& s) {
-  constexpr double kSameFace = 0.5;  // normals' cosine
+  constexpr double kSameFace = 0.5;     // normals' cosine
+  constexpr double kSampleReach = 2.0;  // a point on the mesh has a sample this many spacings away, mostly
   double d2 = 0.0;
-  const int k = m.tree.nearest(at, d2);
+  const int k = m.tree.nearest_likely_within(at, kSampleReach * m.spacing_m, d2);
   const int top = std::max(1, s.max_view_score);
   int score = top / 2;  // no sample of this face near: neither likely nor unlikely
   if (k >= 0 && m.nrm[static_cast<size_t>(k)].dot(normal) > kSameFace)

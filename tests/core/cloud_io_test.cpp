@@ -166,6 +166,55 @@ TEST(CloudIo, ReadsPlyAsciiBinaryAndBigEndian) {
   EXPECT_EQ(pts[1], Vec3(1e-3, 2.0, -0.125));
 }
 
+// Ascii numbers are read to the same double the C library's correctly rounded parse gives (strtod), in every
+// way clouds write them: short and long decimals, 15-17 significant digits, leading zeros, negative zero,
+// exponents, integers, a leading plus; a reader that rounds its own way is off in the last bit somewhere
+// here.
+TEST(CloudIo, AsciiNumbersReadToTheCorrectlyRoundedDouble) {
+  std::filesystem::create_directories(dir);
+  std::mt19937_64 rng(21);
+  std::uniform_real_distribution<double> u(-2.5, 2.5);
+  std::vector<std::string> words{"0",
+                                 "-0",
+                                 "-0.0",
+                                 "0.1",
+                                 "0.3",
+                                 "1.",
+                                 ".5",
+                                 "-.25",
+                                 "+1.5",
+                                 "1e-3",
+                                 "-2.5E+2",
+                                 "007.500",
+                                 "0.000000000000000000001",
+                                 "123456789012345",
+                                 "1234567890123456",
+                                 "0.12345678901234567890",
+                                 "9007199254740993",
+                                 "-1.7976931348623157e308"};
+  const char* formats[] = {"%.3f", "%.6f", "%.9g", "%.15g", "%.17g", "%.12f", "%.20f"};
+  for (int i = 0; i < 4000; ++i) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, formats[i % 7], u(rng) * std::pow(10.0, i % 5 - 2));
+    words.push_back(buf);
+  }
+  while (words.size() % 3) words.push_back("1");
+  const std::string file = (dir / "numbers.pcd").string();
+  {
+    std::ofstream out(file);
+    out << "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH " << words.size() / 3
+        << "\nHEIGHT 1\nPOINTS " << words.size() / 3 << "\nDATA ascii\n";
+    for (size_t i = 0; i < words.size(); i += 3)
+      out << words[i] << " " << words[i + 1] << "\t" << words[i + 2] << (i % 2 ? "\r\n" : "\n");
+  }
+  const std::vector<Vec3> pts = read_cloud(file);
+  ASSERT_EQ(pts.size(), words.size() / 3);
+  for (size_t i = 0; i < words.size(); ++i) {
+    const double want = std::strtod(words[i].c_str(), nullptr), got = pts[i / 3][static_cast<int>(i % 3)];
+    EXPECT_EQ(std::memcmp(&want, &got, sizeof want), 0) << words[i] << ": " << got << " against " << want;
+  }
+}
+
 TEST(CloudIo, TruncatedFilesAreRefusedNamingTheFile) {
   std::filesystem::create_directories(dir);
   std::vector<Vec3> pts(100, Vec3(0.1, 0.2, 0.3));

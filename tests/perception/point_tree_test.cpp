@@ -1,5 +1,6 @@
 // The kd-tree's radius-limited nearest point must be its nearest point whenever that is within the radius
-// (the same index, ties included), and nothing when it is not.
+// (the same index, ties included), and nothing when it is not; sought first within a likely radius, it is
+// the nearest point whether or not that is within the radius.
 #include "perception/localize/point_tree.hpp"
 
 #include <gtest/gtest.h>
@@ -23,6 +24,9 @@ TEST(PointTree, NearestWithinIsNearestOrNothing) {
     double d_all = 0.0, d_within = -1.0;
     const int all = tree.nearest(q, d_all);
     const int within = tree.nearest_within(q, r, d_within);
+    double d_likely = -1.0;
+    ASSERT_EQ(tree.nearest_likely_within(q, r, d_likely), all) << q.transpose() << " likely within " << r;
+    ASSERT_EQ(d_likely, d_all);
     if (d_all < r * r) {
       ++inside;
       ASSERT_EQ(within, all) << q.transpose() << " within " << r;
