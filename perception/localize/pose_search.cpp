@@ -1,6 +1,7 @@
 #include "perception/localize/pose_search.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 #include <Eigen/Eigenvalues>
@@ -17,6 +18,7 @@ constexpr double kWallNormalZ = 0.5;  // a PCA normal with |n.z| below this is a
 constexpr int kYawKeyBins = 1024;     // yaw bins in a vote's key (at least 360 / vote_yaw_deg)
 constexpr long long kXyKeyOffset = 100000;
 constexpr long long kXyKeySpan = 200003;
+constexpr size_t kVoteChunks = 32;  // the voters in this many runs, taken by the workers as they finish one
 
 long long vote_key(int ix, int iy, int iw) {
   return (static_cast<long long>(ix + kXyKeyOffset) * kXyKeySpan + (iy + kXyKeyOffset)) * kYawKeyBins + iw;
@@ -26,7 +28,7 @@ long long vote_key(int ix, int iy, int iw) {
 // hash map), grown at half full.
 class VoteCounts {
  public:
-  void add(long long key) {
+  void add(long long key, int count = 1) {
     if (2 * (used_ + 1) > slots_.size()) grow();
     size_t i = slot_of(key);
     while (slots_[i].count != 0 && slots_[i].key != key) i = (i + 1) & (slots_.size() - 1);
@@ -34,7 +36,12 @@ class VoteCounts {
       slots_[i].key = key;
       ++used_;
     }
-    ++slots_[i].count;
+    slots_[i].count += count;
+  }
+  /// Another table's votes added to these.
+  void add_all(const VoteCounts& other) {
+    for (const Slot& e : other.slots_)
+      if (e.count != 0) add(e.key, e.count);
   }
   int get(long long key) const {
     if (slots_.empty()) return 0;
@@ -96,7 +103,6 @@ PoseSearchResult search_poses(const ScenePoints& scene, PartModel& model, const 
     out.reason = "nothing part-like stands on the table";
     return out;
   }
-  VoteCounts votes;
   // The direction of every model wall sample's normal, once.
   std::vector<std::vector<double>> wall_angle(model.walls_by_height.size());
   for (size_t hb = 0; hb < model.walls_by_height.size(); ++hb)
@@ -106,11 +112,10 @@ PoseSearchResult search_poses(const ScenePoints& scene, PartModel& model, const 
     }
   const int yaw_bins = static_cast<int>(std::round(360.0 / s.vote_yaw_deg));
   const size_t stride = std::max<size_t>(1, voters.size() / static_cast<size_t>(s.vote_points));
-  std::vector<uint32_t> nidx;
-  std::vector<double> nd2;
-  for (size_t v = 0; v < voters.size(); v += stride) {
+  // The votes of one scan point.
+  auto cast_votes = [&](size_t v, VoteCounts& table, std::vector<uint32_t>& nidx, std::vector<double>& nd2) {
     const Vec3& q = scan[voters[v]];
-    if (scene.tree.knn(q, static_cast<size_t>(s.normal_neighbours), nidx, nd2) < kMinNeighbours) continue;
+    if (scene.tree.knn(q, static_cast<size_t>(s.normal_neighbours), nidx, nd2) < kMinNeighbours) return;
     Vec3 mean = Vec3::Zero();
     for (uint32_t j : nidx) mean += scan[j];
     mean /= static_cast<double>(nidx.size());
@@ -118,7 +123,7 @@ PoseSearchResult search_poses(const ScenePoints& scene, PartModel& model, const 
     for (uint32_t j : nidx) C += (scan[j] - mean) * (scan[j] - mean).transpose();
     const Eigen::SelfAdjointEigenSolver<Mat3> eig(C);
     const Vec3 nn = eig.eigenvectors().col(0);
-    if (std::abs(nn.z()) > kWallNormalZ) continue;
+    if (std::abs(nn.z()) > kWallNormalZ) return;
     const double a = std::atan2(nn.y(), nn.x());
     const long bin = static_cast<long>(q.z() / model.height_bin_m);
     for (long hb = bin - 1; hb <= bin + 1; ++hb) {
@@ -137,12 +142,28 @@ PoseSearchResult search_poses(const ScenePoints& scene, PartModel& model, const 
           }
           const double tx = q.x() - (cy * mp.x() - sy * mp.y()), ty = q.y() - (sy * mp.x() + cy * mp.y());
           const int iw = static_cast<int>(yaw / deg2rad(s.vote_yaw_deg)) % yaw_bins;
-          votes.add(vote_key(static_cast<int>(std::floor(tx / s.vote_xy_m)),
+          table.add(vote_key(static_cast<int>(std::floor(tx / s.vote_xy_m)),
                              static_cast<int>(std::floor(ty / s.vote_xy_m)), iw));
         }
       }
     }
-  }
+  };
+  // Cast on every core, a table per worker, then added up: a count does not depend on the order its votes
+  // came in, and the peaks are ranked by count and key alone.
+  const size_t casting = (voters.size() + stride - 1) / stride;
+  const size_t chunks = std::min(casting, kVoteChunks);
+  std::vector<VoteCounts> tables(parallel_workers(chunks, threads));
+  std::atomic<size_t> next_table{0};
+  parallel_for_with(
+      chunks, threads, [&] { return &tables[next_table++]; },
+      [&](VoteCounts* table, size_t chunk) {
+        std::vector<uint32_t> nidx;
+        std::vector<double> nd2;
+        for (size_t c = chunk * casting / chunks; c < (chunk + 1) * casting / chunks; ++c)
+          cast_votes(c * stride, *table, nidx, nd2);
+      });
+  VoteCounts& votes = tables.front();
+  for (size_t t = 1; t < tables.size(); ++t) votes.add_all(tables[t]);
   if (votes.empty()) {
     out.reason = "no part-like walls on the table";
     return out;

@@ -146,6 +146,17 @@ TEST(LocalizeStages, HoughSearchHasTheTruePoseAmongItsPeaks) {
             dyaw < deg2rad(4.0));
   }
   EXPECT_TRUE(near);
+  // The votes cast on several threads, a table each, added up: the very same peaks in the same order.
+  for (int threads : {2, 3}) {
+    const PoseSearchResult m = search_poses(p.scene, p.model, PoseSearchSetting(), std::nullopt, threads);
+    ASSERT_EQ(m.hypotheses.size(), r.hypotheses.size()) << threads;
+    for (size_t i = 0; i < r.hypotheses.size(); ++i) {
+      EXPECT_EQ(m.hypotheses[i].x, r.hypotheses[i].x) << threads << " " << i;
+      EXPECT_EQ(m.hypotheses[i].y, r.hypotheses[i].y) << threads << " " << i;
+      EXPECT_EQ(m.hypotheses[i].yaw, r.hypotheses[i].yaw) << threads << " " << i;
+      EXPECT_EQ(m.hypotheses[i].votes, r.hypotheses[i].votes) << threads << " " << i;
+    }
+  }
 }
 
 TEST(LocalizeStages, SurfaceFitConvergesFromSeededPerturbations) {
