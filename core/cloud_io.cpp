@@ -74,10 +74,11 @@ bool is_separator(const char* c, const char* end) {
   return c == end || std::isspace(static_cast<unsigned char>(*c));
 }
 
-// A plain decimal ([-]digits[.digits], ended by a blank or the end) whose digits make an integer below 2^53
-// with at most kMaxExactPower of them after the point, the way nearly every ascii cloud writes its numbers:
-// digits / 10^k, both exact in a double, and one division is correctly rounded (Clinger's fast path), so the
-// value is the one from_chars gives, at a fraction of its cost. False (p untouched) for anything else.
+// A plain decimal ([-]digits[.digits], ended by white space or the end) whose digits make an integer below
+// 2^53 with at most kMaxExactPower of them after the point, the way nearly every ascii cloud writes its
+// numbers: digits / 10^k, both exact in a double, and one division is correctly rounded (Clinger's fast
+// path), so the value is the one from_chars gives, at a fraction of its cost. False (p untouched) for
+// anything else.
 constexpr int kMaxExactPower = 22;                 // 10^22 is the largest exact power of ten
 constexpr long kMaxDigits = 19;                    // any 19 digits fit a uint64_t
 constexpr uint64_t kMaxExact = uint64_t{1} << 53;  // every integer up to this is an exact double
@@ -100,8 +101,8 @@ bool parse_plain_decimal(const char*& p, const char* end, double& v) {
     after_point = c - fraction;
     count += after_point;
   }
-  const bool ended = c == end || *c == ' ' || *c == '\t' || *c == '\n' || *c == '\r';
-  if (count == 0 || count > kMaxDigits || digits > kMaxExact || after_point > kMaxExactPower || !ended)
+  if (count == 0 || count > kMaxDigits || digits > kMaxExact || after_point > kMaxExactPower ||
+      !is_separator(c, end))
     return false;
   const double magnitude = static_cast<double>(digits) / kPow10[after_point];
   v = negative ? -magnitude : magnitude;
@@ -115,12 +116,11 @@ bool parse_double(const char*& p, const char* end, double& v) {
   if (parse_plain_decimal(p, end, v)) return true;
   const char* start = p;
   const auto r = std::from_chars(start, end, v);
-  auto separator = [&](const char* c) { return is_separator(c, end); };
-  if (r.ec == std::errc() && separator(r.ptr)) {
+  if (r.ec == std::errc() && is_separator(r.ptr, end)) {
     p = r.ptr;
     return true;
   }
-  while (p < end && !separator(p)) ++p;
+  while (p < end && !is_separator(p, end)) ++p;
   std::string token(start, p);  // nan, inf, +1.5 and the like
   char* stop = nullptr;
   v = std::strtod(token.c_str(), &stop);
