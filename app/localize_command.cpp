@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <nlohmann/json.hpp>
 #include <optional>
 
@@ -51,8 +52,27 @@ CLI::App* add_localize_command(CLI::App& app, LocalizeCommand& cmd) {
         "as the baseline (it has no verdict and answers even when wrong)")
       ->check(CLI::IsMember({"ours", "paper"}));
   lc->add_option("--out", cmd.out, "pose JSON to write")->required();
+  lc->add_option("--part-cache", cmd.part_cache,
+                 "folder where the prepared part (its samples, visibility, edges, footprint) is kept between "
+                 "runs, so that the next localization of the same part skips preparing it (default: " +
+                     (default_part_cache_dir().empty() ? std::string("none") : default_part_cache_dir()) +
+                     "; WELDTWIN_PART_CACHE names another, or off)");
+  lc->add_flag("--no-part-cache", cmd.no_part_cache, "prepare the part anew and keep nothing");
   lc->add_flag("-q,--quiet", cmd.quiet, "no progress line");
   return lc;
+}
+
+std::string default_part_cache_dir() {
+  auto env = [](const char* name) {
+    const char* v = std::getenv(name);
+    return std::string(v ? v : "");
+  };
+  const std::string named = env("WELDTWIN_PART_CACHE");
+  if (named == "off") return "";
+  if (!named.empty()) return named;
+  if (!env("XDG_CACHE_HOME").empty()) return env("XDG_CACHE_HOME") + "/weldtwin/parts";
+  if (!env("HOME").empty()) return env("HOME") + "/.cache/weldtwin/parts";
+  return "";
 }
 
 int run_localize(LocalizeCommand cmd) {
@@ -77,9 +97,12 @@ int run_localize(LocalizeCommand cmd) {
   const Mesh mesh =
       cmd.model.empty() ? load_mesh(part->mesh_path) : load_mesh(cmd.model, cmd.units == "mm" ? 1e-3 : 1.0);
   // The part made ready on its own thread while the cloud is read and the table found.
+  const std::string keep_dir =
+      cmd.no_part_cache ? "" : (cmd.part_cache.empty() ? default_part_cache_dir() : cmd.part_cache);
   const std::optional<PreparedPart> prepared =
-      cmd.method == "paper" ? std::nullopt
-                            : std::optional<PreparedPart>(std::in_place, mesh, LocalizeSetting(), true);
+      cmd.method == "paper"
+          ? std::nullopt
+          : std::optional<PreparedPart>(std::in_place, mesh, LocalizeSetting(), true, keep_dir);
   size_t dropped = 0;
   std::vector<Vec3> viewpoints;  // where the sensor saw each point from, if the cloud says
   std::vector<Vec3> cloud = read_cloud(cmd.scan, &dropped, &viewpoints);
@@ -112,13 +135,16 @@ int run_localize(LocalizeCommand cmd) {
   out["scan_points"] = cloud.size();
   out["dropped_non_finite"] = dropped;
   out["seconds"] = pose.seconds;
+  if (cmd.method != "paper") out["part_cache"] = pose.part_file;
   write_json_file(cmd.out, out);
   if (!cmd.quiet)
     std::fprintf(stderr,
-                 "localize: %s in %.2f s: fitness %.2f, rmse %.2f mm, coverage %.2f, ambiguity %.2f -> %s\n",
+                 "localize: %s in %.2f s: fitness %.2f, rmse %.2f mm, coverage %.2f, ambiguity %.2f -> %s "
+                 "(prepared part: %s)\n",
                  pose.found ? "found" : "not found",
                  std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(),
-                 pose.fitness, 1e3 * pose.rmse_m, pose.coverage, pose.ambiguity, cmd.out.c_str());
+                 pose.fitness, 1e3 * pose.rmse_m, pose.coverage, pose.ambiguity, cmd.out.c_str(),
+                 cmd.method == "paper" ? "none" : pose.part_file.c_str());
   if (!pose.found) {
     std::fprintf(stderr, "weldtwin: %s: part not found: %s\n", cmd.scan.c_str(), pose.reason.c_str());
     return kExitUntrustworthy;

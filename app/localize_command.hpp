@@ -22,6 +22,8 @@ struct LocalizeCommand {
   std::string method = "ours";  ///< ours, or paper (the published pipeline, the benchmarks' baseline)
   std::string out;
   bool quiet = false;
+  std::string part_cache;  ///< folder of prepared parts kept between runs ("" before the default is applied)
+  bool no_part_cache = false;
   std::string roi_text;  ///< --roi as given (six numbers, commas between), read into `roi` by run_localize
 };
 
@@ -30,6 +32,10 @@ CLI::App* add_localize_command(CLI::App& app, LocalizeCommand& cmd);
 
 /// weldtwin's description and the footer naming its scenes, for the top level of either program.
 void describe_weldtwin(CLI::App& app);
+
+/// Where prepared parts are kept between runs unless told otherwise: $WELDTWIN_PART_CACHE ("off": nowhere),
+/// else $XDG_CACHE_HOME/weldtwin/parts, else $HOME/.cache/weldtwin/parts ("" when none of them is set).
+std::string default_part_cache_dir();
 
 /// Returns 0 when found, 3 when the part is absent, ambiguous or poorly fitted (the JSON says why); throws
 /// InputError on a bad file or option.

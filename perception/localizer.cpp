@@ -11,6 +11,7 @@
 
 #include "core/parallel_for.hpp"
 #include "core/part_spec.hpp"
+#include "perception/localize/part_model_file.hpp"
 #include "perception/localize/stats.hpp"
 #include "perception/localize/wall_side.hpp"
 
@@ -33,24 +34,42 @@ struct PreparedPart::Impl {
   double min_z = 0.0;  ///< the mesh's lowest vertex: the resting frame is the mesh frame lifted by it
   double model_spacing_m = 0.0;    ///< the setting it was prepared with
   std::shared_future<void> ready;  ///< the model built (or its error)
+  std::string part_file = "off";   ///< PoseEstimate::part_file
 
-  void build(const Mesh& mesh, const LocalizeSetting& setting) {
+  void build(const Mesh& mesh, const LocalizeSetting& setting, const std::string& keep_dir) {
     min_z = 1e9;
     for (const Vec3& v : mesh.vertices) min_z = std::min(min_z, v.z());
-    build_part_model(mesh, min_z, setting.model, setting.threads, model);
+    const uint64_t key = keep_dir.empty() ? 0 : part_model_key(mesh, min_z, setting.model);
+    if (key == 0) {
+      build_part_model(mesh, min_z, setting.model, setting.threads, model);
+      part_file = keep_dir.empty() ? "off" : "not written: the program has no build id to tell builds apart";
+      return;
+    }
+    const std::string path = part_model_path(keep_dir, key);
+    Mesh rest;
+    if (load_part_model(path, key, model, rest) == PartFileRead::kRead) {
+      make_lookups(rest, setting.model, model);
+      part_file = "read";
+      return;
+    }
+    rest = resting_mesh(mesh, min_z);
+    build_part_model_at_rest(rest, setting.model, setting.threads, model);
+    const std::string why = save_part_model(model, rest, key, path);
+    part_file = why.empty() ? "written" : "not written: " + why;
   }
 };
 
-PreparedPart::PreparedPart(const Mesh& mesh, const LocalizeSetting& setting, bool in_background)
+PreparedPart::PreparedPart(const Mesh& mesh, const LocalizeSetting& setting, bool in_background,
+                           const std::string& keep_dir)
     : impl_(std::make_shared<Impl>()) {
   impl_->model_spacing_m = setting.model.spacing_m;
   if (in_background) {
-    impl_->ready = std::async(std::launch::async, [impl = impl_.get(), mesh, setting] {
-                     impl->build(mesh, setting);
+    impl_->ready = std::async(std::launch::async, [impl = impl_.get(), mesh, setting, keep_dir] {
+                     impl->build(mesh, setting, keep_dir);
                    }).share();
     return;
   }
-  impl_->build(mesh, setting);
+  impl_->build(mesh, setting, keep_dir);
   std::promise<void> done;
   done.set_value();
   impl_->ready = done.get_future().share();
@@ -88,6 +107,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   const TablePlane table = find_table_plane(scan_base, s.table);
   stage("table");
   part.impl_->ready.get();
+  out.part_file = part.impl_->part_file;
   const double min_z = part.impl_->min_z;
   PartModel& model = part.impl_->model;  // its nearest-sample grid fills as it is asked (the same answers)
   stage("model");

@@ -115,6 +115,9 @@ struct PoseEstimate {
   /// disagree most put the seams farther apart than their 95 % bound allows [m] (and how far apart [m]).
   int passes_fitted = 0;
   double pass_excess_m = 0.0, pass_apart_m = 0.0;
+  /// Where the prepared part came from: "off" (built, nothing kept), "read" (a file of an earlier run),
+  /// "written" (built and kept for the next run), "not written: <why>" (built)
+  std::string part_file = "off";
   double seconds = 0.0;
   std::vector<std::pair<std::string, double>>
       stage_seconds;  ///< table, model (waiting for the part, built beside the table), objects, search,
@@ -131,7 +134,11 @@ class PreparedPart {
   /// `in_background`: made ready on a thread of its own (the mesh copied), so that the caller can read the
   /// scan meanwhile; localize() finds the table first and then waits for it. An error in the mesh is thrown
   /// there.
-  explicit PreparedPart(const Mesh& mesh, const LocalizeSetting& setting = {}, bool in_background = false);
+  /// `keep_dir` (optional): a folder where prepared parts are kept between runs (part_model_file.hpp): the
+  /// part is read from there when an earlier run of this program prepared it with the same setting, and
+  /// written there when not. Any trouble with it (unwritable, damaged) only means the part is built.
+  explicit PreparedPart(const Mesh& mesh, const LocalizeSetting& setting = {}, bool in_background = false,
+                        const std::string& keep_dir = "");
 
  private:
   struct Impl;

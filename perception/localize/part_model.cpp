@@ -86,11 +86,33 @@ int PartModel::nearest(const Vec3& p) {
   return known;
 }
 
-void build_part_model(const Mesh& mesh, double min_z, const PartModelSetting& s, int threads,
-                      PartModel& model) {
+Mesh resting_mesh(const Mesh& mesh, double min_z) {
   Mesh rest = mesh;
   for (Vec3& v : rest.vertices) v.z() -= min_z;
   orient_outward(rest);  // a mesh file's winding is not to be trusted
+  return rest;
+}
+
+void make_lookups(const Mesh& rest, const PartModelSetting& s, PartModel& model) {
+  if (!model.rays) model.rays = std::make_unique<MeshRays>(rest);
+  model.tree = PointTree(model.pts);
+  model.surface = std::make_unique<ClosestGrid>(*model.rays, model.lo, model.hi, s.closest);
+  model.cache_cell = s.lookup_cell_m;
+  model.cache_margin = s.lookup_margin_m;
+  model.cache_origin = model.lo - Vec3::Constant(model.cache_margin);
+  const Vec3 ext = model.hi - model.lo + Vec3::Constant(2 * model.cache_margin);
+  model.cx = static_cast<int>(ext.x() / model.cache_cell) + 1;
+  model.cy = static_cast<int>(ext.y() / model.cache_cell) + 1;
+  model.cz = static_cast<int>(ext.z() / model.cache_cell) + 1;
+  model.cache = BrickSlots<int>(model.cx, model.cy, model.cz);
+}
+
+void build_part_model(const Mesh& mesh, double min_z, const PartModelSetting& s, int threads,
+                      PartModel& model) {
+  build_part_model_at_rest(resting_mesh(mesh, min_z), s, threads, model);
+}
+
+void build_part_model_at_rest(const Mesh& rest, const PartModelSetting& s, int threads, PartModel& model) {
   const SurfaceSamples all = sample_surface(rest, s.spacing_m, s.min_normal_z);
   model.rays = std::make_unique<MeshRays>(rest);
   const MeshRays& rays = *model.rays;
@@ -123,8 +145,6 @@ void build_part_model(const Mesh& mesh, double min_z, const PartModelSetting& s,
     model.radius = std::max(model.radius, p.head<2>().norm());
   }
   model.height = model.hi.z();
-  model.tree = PointTree(model.pts);
-  model.surface = std::make_unique<ClosestGrid>(rays, model.lo, model.hi, s.closest);
 
   // Distance of every sample to the nearest feature edge.
   model.edge_distance.assign(n, kFarFromEdges_m);
@@ -257,17 +277,9 @@ void build_part_model(const Mesh& mesh, double min_z, const PartModelSetting& s,
     model.footprint.value[i] = static_cast<float>(lowest);
   }
 
+  // The nearest-sample tree (the continued faces ask it), the surface's and the samples' lookup grids.
+  make_lookups(rest, s, model);
   beyond_edge_samples(rest, model, s);
-
-  // The lazy nearest-sample grid.
-  model.cache_cell = s.lookup_cell_m;
-  model.cache_margin = s.lookup_margin_m;
-  model.cache_origin = model.lo - Vec3::Constant(model.cache_margin);
-  const Vec3 ext = model.hi - model.lo + Vec3::Constant(2 * model.cache_margin);
-  model.cx = static_cast<int>(ext.x() / model.cache_cell) + 1;
-  model.cy = static_cast<int>(ext.y() / model.cache_cell) + 1;
-  model.cz = static_cast<int>(ext.z() / model.cache_cell) + 1;
-  model.cache = BrickSlots<int>(model.cx, model.cy, model.cz);
 }
 
 }  // namespace weldtwin

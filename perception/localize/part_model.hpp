@@ -86,9 +86,20 @@ struct PartModel {
   BrickSlots<int> cache;
 };
 
+/// `mesh` lifted by -min_z and its faces turned outwards: the frame the model is built in.
+Mesh resting_mesh(const Mesh& mesh, double min_z);
+
+/// What the model's questions are answered by: the mesh for rays (made from `rest` when the model has none),
+/// the samples' tree and the lookup grids (empty until asked). Needs the samples and their box.
+void make_lookups(const Mesh& rest, const PartModelSetting& setting, PartModel& model);
+
 /// Builds the model of `mesh` lifted by -min_z (faces turned outwards first: a CAD file's winding is not to
 /// be trusted), on `threads` threads (0: all cores).
 void build_part_model(const Mesh& mesh, double min_z, const PartModelSetting& setting, int threads,
                       PartModel& model);
+
+/// The same for a mesh already lifted and turned outwards (resting_mesh).
+void build_part_model_at_rest(const Mesh& rest, const PartModelSetting& setting, int threads,
+                              PartModel& model);
 
 }  // namespace weldtwin

@@ -1,0 +1,373 @@
+#include "perception/localize/part_model_file.hpp"
+
+#include <elf.h>
+#include <link.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <system_error>
+#include <type_traits>
+
+namespace weldtwin {
+namespace {
+
+constexpr char kMagic[8] = {'W', 'T', 'P', 'A', 'R', 'T', '0', '1'};  // bump the digits with the layout
+constexpr uint64_t kFormat = 1;                                       // ... and this: it joins the key
+constexpr size_t kHeaderBytes = sizeof kMagic + 2 * sizeof(uint64_t);
+constexpr uintmax_t kMaxFileBytes = uintmax_t{1} << 32;  // a larger file is not one of ours
+
+// A 64-bit hash of bytes, eight at a time (not cryptographic: it tells a damaged file or another input
+// apart).
+class Hash {
+ public:
+  void add(const void* data, size_t bytes) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (; bytes >= 8; p += 8, bytes -= 8) {
+      uint64_t w;
+      std::memcpy(&w, p, 8);
+      mix(w);
+    }
+    if (bytes > 0) {
+      uint64_t w = 0;
+      std::memcpy(&w, p, bytes);
+      mix(w ^ (uint64_t{bytes} << 56));
+    }
+  }
+  template <class T>
+  void add(const T& value) {
+    static_assert(std::is_arithmetic_v<T>);
+    add(&value, sizeof value);
+  }
+  uint64_t value() const { return h_ ^ (h_ >> 31); }
+
+ private:
+  void mix(uint64_t w) {
+    h_ = (h_ ^ w) * 0x9E3779B97F4A7C15ull;
+    h_ ^= h_ >> 29;
+  }
+  uint64_t h_ = 0x243F6A8885A308D3ull;
+};
+
+// The running program's GNU build id (empty when it has none).
+std::string program_build_id() {
+  std::string id;
+  dl_iterate_phdr(
+      [](dl_phdr_info* info, size_t, void* out) {
+        for (int i = 0; i < info->dlpi_phnum; ++i) {
+          const ElfW(Phdr)& ph = info->dlpi_phdr[i];
+          if (ph.p_type != PT_NOTE) continue;
+          const char* p = reinterpret_cast<const char*>(info->dlpi_addr + ph.p_vaddr);
+          const char* end = p + ph.p_memsz;
+          while (p + sizeof(ElfW(Nhdr)) <= end) {
+            ElfW(Nhdr) note;
+            std::memcpy(&note, p, sizeof note);
+            const char* name = p + sizeof note;
+            const char* desc = name + ((note.n_namesz + 3) & ~3u);
+            if (desc + note.n_descsz > end) break;
+            if (note.n_type == NT_GNU_BUILD_ID && note.n_namesz == 4 && std::memcmp(name, "GNU", 4) == 0) {
+              static_cast<std::string*>(out)->assign(desc, note.n_descsz);
+              return 1;
+            }
+            p = desc + ((note.n_descsz + 3) & ~3u);
+          }
+        }
+        return 1;  // the first object is the program itself: not found there, not found
+      },
+      &id);
+  return id;
+}
+
+class Writer {
+ public:
+  template <class T>
+  void put(const T& value) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    const auto* p = reinterpret_cast<const char*>(&value);
+    bytes_.insert(bytes_.end(), p, p + sizeof value);
+  }
+  template <class T>
+  void put_all(const std::vector<T>& values) {  // the count, then the values as they lie in memory
+    put(static_cast<uint64_t>(values.size()));
+    const auto* p = reinterpret_cast<const char*>(values.data());
+    bytes_.insert(bytes_.end(), p, p + values.size() * sizeof(T));
+  }
+  const std::vector<char>& bytes() const { return bytes_; }
+
+ private:
+  std::vector<char> bytes_;
+};
+
+class Reader {
+ public:
+  Reader(const char* p, size_t n) : p_(p), end_(p + n) {}
+  template <class T>
+  bool get(T& value) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    if (static_cast<size_t>(end_ - p_) < sizeof value) return false;
+    std::memcpy(&value, p_, sizeof value);
+    p_ += sizeof value;
+    return true;
+  }
+  template <class T>
+  bool get_all(std::vector<T>& values) {  // never more than the bytes that are left
+    uint64_t n = 0;
+    if (!get(n) || n > static_cast<size_t>(end_ - p_) / sizeof(T)) return false;
+    values.resize(n);
+    std::memcpy(static_cast<void*>(values.data()), p_, n * sizeof(T));
+    p_ += n * sizeof(T);
+    return true;
+  }
+  bool done() const { return p_ == end_; }
+
+ private:
+  const char* p_;
+  const char* end_;
+};
+
+// Eigen's fixed-size types are copied as their scalars (they are not trivially copyable to the standard).
+template <class V>
+void put_vectors(Writer& w, const std::vector<V>& vs) {
+  std::vector<typename V::Scalar> flat;
+  flat.reserve(vs.size() * V::SizeAtCompileTime);
+  for (const V& v : vs) flat.insert(flat.end(), v.data(), v.data() + V::SizeAtCompileTime);
+  w.put_all(flat);
+}
+template <class V>
+bool get_vectors(Reader& r, std::vector<V>& vs) {
+  std::vector<typename V::Scalar> flat;
+  if (!r.get_all(flat) || flat.size() % V::SizeAtCompileTime != 0) return false;
+  vs.resize(flat.size() / V::SizeAtCompileTime);
+  for (size_t i = 0; i < vs.size(); ++i) vs[i] = Eigen::Map<const V>(flat.data() + i * V::SizeAtCompileTime);
+  return true;
+}
+void put_vec3(Writer& w, const Vec3& v) {
+  for (int i = 0; i < 3; ++i) w.put(v[i]);
+}
+bool get_vec3(Reader& r, Vec3& v) {
+  return r.get(v[0]) && r.get(v[1]) && r.get(v[2]);
+}
+
+std::vector<char> payload(const PartModel& m, const Mesh& rest) {
+  Writer w;
+  put_vectors(w, rest.vertices);
+  put_vectors(w, rest.faces);
+  put_vectors(w, m.pts);
+  put_vectors(w, m.nrm);
+  w.put_all(m.visible);
+  w.put_all(m.view_score);
+  w.put_all(m.half_thickness);
+  w.put_all(m.edge_distance);
+  put_vec3(w, m.lo);
+  put_vec3(w, m.hi);
+  w.put(m.radius);
+  w.put(m.height);
+  w.put(m.spacing_m);
+  w.put(m.height_bin_m);
+  w.put(static_cast<uint64_t>(m.walls_by_height.size()));
+  for (const std::vector<int>& bin : m.walls_by_height) w.put_all(bin);
+  w.put(m.footprint.cell);
+  w.put(m.footprint.origin.x());
+  w.put(m.footprint.origin.y());
+  w.put(m.footprint.nx);
+  w.put(m.footprint.ny);
+  w.put_all(m.footprint.on);
+  w.put_all(m.footprint.value);
+  std::vector<double> outline;
+  for (const PartModel::OutlineSample& o : m.outline)
+    outline.insert(outline.end(), {o.at.x(), o.at.y(), o.out.x(), o.out.y(), o.top});
+  w.put_all(outline);
+  w.put(m.thin_wall_m);
+  put_vectors(w, m.wall_side_shifts);
+  put_vectors(w, m.beyond);
+  w.put_all(m.beyond_dist);
+  return w.bytes();
+}
+
+// Reads the payload into `m` and `rest`; false when it is cut short, too long, or its fields do not fit
+// together (then `m` and `rest` may hold part of it: the caller reads into scratch ones).
+bool read_payload(Reader& r, PartModel& m, Mesh& rest) {
+  if (!get_vectors(r, rest.vertices) || !get_vectors(r, rest.faces)) return false;
+  for (const Eigen::Vector3i& f : rest.faces)
+    for (int k = 0; k < 3; ++k)
+      if (f[k] < 0 || static_cast<size_t>(f[k]) >= rest.vertices.size()) return false;
+  if (!get_vectors(r, m.pts) || !get_vectors(r, m.nrm) || !r.get_all(m.visible) || !r.get_all(m.view_score) ||
+      !r.get_all(m.half_thickness) || !r.get_all(m.edge_distance))
+    return false;
+  const size_t n = m.pts.size();
+  if (m.nrm.size() != n || m.visible.size() != n || m.view_score.size() != n ||
+      m.half_thickness.size() != n || m.edge_distance.size() != n)
+    return false;
+  uint64_t bins = 0;
+  if (!get_vec3(r, m.lo) || !get_vec3(r, m.hi) || !r.get(m.radius) || !r.get(m.height) ||
+      !r.get(m.spacing_m) || !r.get(m.height_bin_m) || !r.get(bins))
+    return false;
+  if (bins > n + 2) return false;  // more bins than samples: not a model of ours
+  m.walls_by_height.resize(bins);
+  for (std::vector<int>& bin : m.walls_by_height) {
+    if (!r.get_all(bin)) return false;
+    for (int k : bin)
+      if (k < 0 || static_cast<size_t>(k) >= n) return false;
+  }
+  Grid2& g = m.footprint;
+  if (!r.get(g.cell) || !r.get(g.origin.x()) || !r.get(g.origin.y()) || !r.get(g.nx) || !r.get(g.ny) ||
+      !r.get_all(g.on) || !r.get_all(g.value))
+    return false;
+  if (g.nx < 0 || g.ny < 0 || g.on.size() != g.cells() || g.value.size() != g.cells()) return false;
+  std::vector<double> outline;
+  if (!r.get_all(outline) || outline.size() % 5 != 0) return false;
+  m.outline.resize(outline.size() / 5);
+  for (size_t i = 0; i < m.outline.size(); ++i) {
+    const double* o = &outline[5 * i];
+    m.outline[i] = {Eigen::Vector2d(o[0], o[1]), Eigen::Vector2d(o[2], o[3]), o[4]};
+  }
+  if (!r.get(m.thin_wall_m) || !get_vectors(r, m.wall_side_shifts) || !get_vectors(r, m.beyond) ||
+      !r.get_all(m.beyond_dist))
+    return false;
+  return m.beyond_dist.size() == m.beyond.size() && r.done();
+}
+
+// Removes the oldest model files of `dir` beyond `keep` (of this program's other builds, or other parts).
+void prune(const std::filesystem::path& dir, int keep) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  std::vector<std::pair<fs::file_time_type, fs::path>> files;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
+    if (it->path().extension() == ".part") files.emplace_back(it->last_write_time(ec), it->path());
+  if (static_cast<int>(files.size()) <= keep) return;
+  std::sort(files.begin(), files.end());
+  for (size_t i = 0; i + static_cast<size_t>(std::max(0, keep)) < files.size(); ++i)
+    fs::remove(files[i].second, ec);
+}
+
+}  // namespace
+
+uint64_t part_model_key(const Mesh& mesh, double min_z, const PartModelSetting& s) {
+  static const std::string build = program_build_id();
+  if (build.empty()) return 0;
+  Hash h;
+  h.add(kMagic, sizeof kMagic);
+  h.add(kFormat);
+  h.add(build.data(), build.size());
+  h.add(static_cast<uint64_t>(mesh.vertices.size()));
+  for (const Vec3& v : mesh.vertices) h.add(v.data(), sizeof(Vec3));
+  h.add(static_cast<uint64_t>(mesh.faces.size()));
+  for (const Eigen::Vector3i& f : mesh.faces) h.add(f.data(), sizeof(Eigen::Vector3i));
+  h.add(min_z);
+  // Every field of the setting (a field added to PartModelSetting must join here: the size check below
+  // fails until it does).
+  static_assert(sizeof(PartModelSetting) ==
+                    19 * sizeof(double) + 8 + sizeof(std::vector<double>) + sizeof(ClosestGridSetting),
+                "PartModelSetting changed: add its new field to the key");
+  static_assert(sizeof(ClosestGridSetting) == 3 * sizeof(double) + sizeof(size_t),
+                "ClosestGridSetting changed: add its new field to the key");
+  for (double v : {s.spacing_m,
+                   s.min_normal_z,
+                   s.thickness_probe_m,
+                   s.sharp_edge_deg,
+                   s.edge_point_step_m,
+                   s.edge_reach_m,
+                   s.height_bin_m,
+                   s.footprint_cell_m,
+                   s.footprint_margin_m,
+                   s.outline_step_m,
+                   s.outline_corner_m,
+                   s.outline_inside_m,
+                   s.lookup_cell_m,
+                   s.lookup_margin_m,
+                   s.thin_wall_max_m,
+                   s.thin_wall_min_share,
+                   s.wall_direction_gap_deg,
+                   s.beyond_step_m,
+                   s.beyond_clearance_share,
+                   s.closest.cell_m,
+                   s.closest.margin_m,
+                   s.closest.far_m})
+    h.add(v);
+  h.add(s.wall_directions);
+  h.add(static_cast<uint64_t>(s.closest.max_cells));
+  h.add(static_cast<uint64_t>(s.beyond_m.size()));
+  for (double v : s.beyond_m) h.add(v);
+  const uint64_t key = h.value();
+  return key == 0 ? 1 : key;
+}
+
+std::string part_model_path(const std::string& dir, uint64_t key) {
+  char name[32];
+  std::snprintf(name, sizeof name, "%016llx.part", static_cast<unsigned long long>(key));
+  return (std::filesystem::path(dir) / name).string();
+}
+
+std::string save_part_model(const PartModel& model, const Mesh& rest, uint64_t key, const std::string& path,
+                            int keep_files) {
+  namespace fs = std::filesystem;
+  const std::vector<char> body = payload(model, rest);
+  Hash sum;
+  sum.add(body.data(), body.size());
+  const uint64_t check = sum.value(), size = body.size();
+  std::error_code ec;
+  const fs::path dir = fs::path(path).parent_path();
+  if (!dir.empty()) fs::create_directories(dir, ec);
+  if (ec) return dir.string() + ": " + ec.message();
+  const std::string tmp =
+      path + ".tmp" + std::to_string(::getpid()) + "-" + std::to_string(std::random_device()());
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out.write(kMagic, sizeof kMagic);
+    out.write(reinterpret_cast<const char*>(&key), sizeof key);
+    out.write(reinterpret_cast<const char*>(&size), sizeof size);
+    out.write(body.data(), static_cast<std::streamsize>(body.size()));
+    out.write(reinterpret_cast<const char*>(&check), sizeof check);
+    out.close();
+    if (!out) {
+      fs::remove(tmp, ec);
+      return path + ": cannot be written";
+    }
+  }
+  fs::rename(tmp, path, ec);
+  if (ec) {
+    const std::string why = path + ": " + ec.message();
+    fs::remove(tmp, ec);
+    return why;
+  }
+  if (!dir.empty()) prune(dir, keep_files);
+  return "";
+}
+
+PartFileRead load_part_model(const std::string& path, uint64_t key, PartModel& model, Mesh& rest) {
+  std::error_code ec;
+  const uintmax_t bytes = std::filesystem::file_size(path, ec);
+  if (ec) return PartFileRead::kMissing;
+  if (bytes < kHeaderBytes + sizeof(uint64_t) || bytes > kMaxFileBytes) return PartFileRead::kDamaged;
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return PartFileRead::kMissing;
+  char magic[sizeof kMagic];
+  uint64_t file_key = 0, size = 0;
+  in.read(magic, sizeof magic);
+  in.read(reinterpret_cast<char*>(&file_key), sizeof file_key);
+  in.read(reinterpret_cast<char*>(&size), sizeof size);
+  if (!in) return PartFileRead::kDamaged;
+  if (std::memcmp(magic, kMagic, sizeof kMagic) != 0 || file_key != key) return PartFileRead::kOtherKey;
+  if (size != bytes - kHeaderBytes - sizeof(uint64_t)) return PartFileRead::kDamaged;
+  std::vector<char> body(size);
+  uint64_t check = 0;
+  in.read(body.data(), static_cast<std::streamsize>(size));
+  in.read(reinterpret_cast<char*>(&check), sizeof check);
+  if (!in) return PartFileRead::kDamaged;
+  Hash sum;
+  sum.add(body.data(), body.size());
+  if (sum.value() != check) return PartFileRead::kDamaged;
+  PartModel read;
+  Mesh read_rest;
+  Reader r(body.data(), body.size());
+  if (!read_payload(r, read, read_rest)) return PartFileRead::kDamaged;
+  model = std::move(read);
+  rest = std::move(read_rest);
+  return PartFileRead::kRead;
+}
+
+}  // namespace weldtwin
