@@ -137,6 +137,11 @@ int run_localize(LocalizeCommand cmd) {
   out["seconds"] = pose.seconds;
   if (cmd.method != "paper") out["part_cache"] = pose.part_file;
   write_json_file(cmd.out, out);
+  if (prepared) {
+    const std::string why = prepared->keep_lookups();
+    if (!why.empty() && !cmd.quiet)
+      std::fprintf(stderr, "localize: the part's lookups not kept: %s\n", why.c_str());
+  }
   if (!cmd.quiet)
     std::fprintf(stderr,
                  "localize: %s in %.2f s: fitness %.2f, rmse %.2f mm, coverage %.2f, ambiguity %.2f -> %s "

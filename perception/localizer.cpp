@@ -35,20 +35,25 @@ struct PreparedPart::Impl {
   double model_spacing_m = 0.0;    ///< the setting it was prepared with
   std::shared_future<void> ready;  ///< the model built (or its error)
   std::string part_file = "off";   ///< PoseEstimate::part_file
+  uint64_t key = 0;                ///< of the kept files (0: none kept)
+  std::string path;                ///< the model's kept file
+  size_t bricks_read = 0;          ///< the lookup grid's bricks read from the kept lookups
 
   void build(const Mesh& mesh, const LocalizeSetting& setting, const std::string& keep_dir) {
     min_z = 1e9;
     for (const Vec3& v : mesh.vertices) min_z = std::min(min_z, v.z());
-    const uint64_t key = keep_dir.empty() ? 0 : part_model_key(mesh, min_z, setting.model);
+    key = keep_dir.empty() ? 0 : part_model_key(mesh, min_z, setting.model);
     if (key == 0) {
       build_part_model(mesh, min_z, setting.model, setting.threads, model);
       part_file = keep_dir.empty() ? "off" : "not written: the program has no build id to tell builds apart";
       return;
     }
-    const std::string path = part_model_path(keep_dir, key);
+    path = part_model_path(keep_dir, key);
     Mesh rest;
     if (load_part_model(path, key, model, rest) == PartFileRead::kRead) {
       make_lookups(rest, setting.model, model);
+      if (load_part_lookups(part_lookups_path(path), key, model) == PartFileRead::kRead)
+        bricks_read = model.cache.bricks_made();
       part_file = "read";
       return;
     }
@@ -73,6 +78,15 @@ PreparedPart::PreparedPart(const Mesh& mesh, const LocalizeSetting& setting, boo
   std::promise<void> done;
   done.set_value();
   impl_->ready = done.get_future().share();
+}
+
+std::string PreparedPart::keep_lookups() const {
+  impl_->ready.get();
+  const Impl& p = *impl_;
+  constexpr size_t kMinNewBricks = 64, kNewShare = 20;  // write when grown by 64 bricks and a twentieth
+  const size_t made = p.model.cache.bricks_made();
+  if (p.key == 0 || made < p.bricks_read + std::max(kMinNewBricks, p.bricks_read / kNewShare)) return "";
+  return save_part_lookups(p.model, p.key, part_lookups_path(p.path));
 }
 
 PoseEstimate localize(const std::vector<Vec3>& scan_base, const Mesh& mesh, const LocalizeSetting& s,

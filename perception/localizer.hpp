@@ -140,6 +140,11 @@ class PreparedPart {
   explicit PreparedPart(const Mesh& mesh, const LocalizeSetting& setting = {}, bool in_background = false,
                         const std::string& keep_dir = "");
 
+  /// With a `keep_dir`: keeps the answers its nearest-sample grid has gathered for the next run, when they
+  /// have grown since they were read (part_model_file.hpp). Returns "" or why they could not be kept. Call
+  /// it when no localize() is using the part.
+  std::string keep_lookups() const;
+
  private:
   struct Impl;
   std::shared_ptr<Impl> impl_;

@@ -55,23 +55,35 @@ class BrickSlots {
   /// The slot of cell (ix, iy, iz), inside the grid: its brick is made (all zero) on the first ask. Safe to
   /// call from several threads; the slot itself is the caller's to read and write (atomically, when shared).
   T* slot(long ix, long iy, long iz) {
-    T** b = &bricks_[static_cast<size_t>(((iz >> kEdgeBits) * by_ + (iy >> kEdgeBits)) * bx_ +
-                                         (ix >> kEdgeBits))];
-    T* brick = __atomic_load_n(b, __ATOMIC_ACQUIRE);
-    if (!brick) {
-      const std::lock_guard<std::mutex> lock(making_);
-      brick = __atomic_load_n(b, __ATOMIC_ACQUIRE);  // made meanwhile by another thread?
-      if (!brick) {
-        if (used_ == kChunkBricks) {
-          chunks_.push_back(zeroed_slots<T>(kChunkBricks * kBrickSlots));
-          used_ = 0;
-        }
-        brick = chunks_.back().get() + kBrickSlots * used_++;
-        __atomic_store_n(b, brick, __ATOMIC_RELEASE);
-      }
-    }
+    T* brick = made_brick(
+        static_cast<size_t>(((iz >> kEdgeBits) * by_ + (iy >> kEdgeBits)) * bx_ + (ix >> kEdgeBits)));
     constexpr long m = kEdge - 1;
     return brick + (((iz & m) << (2 * kEdgeBits)) | ((iy & m) << kEdgeBits) | (ix & m));
+  }
+
+  /// How many bricks the grid has room for; brick b holds cells (x, y, z) / kEdge = (b % bx, b / bx % by,
+  /// b / (bx by)), its slots in the order x fastest.
+  size_t brick_capacity() const {
+    return static_cast<size_t>(bx_) * static_cast<size_t>(by_) * static_cast<size_t>(bz_);
+  }
+  /// Brick b's kBrickSlots slots (b < brick_capacity()), or null when it has not been made.
+  const T* brick(size_t b) const { return __atomic_load_n(&bricks_[b], __ATOMIC_ACQUIRE); }
+  /// The same, made (all zero) when missing. Safe to call from several threads.
+  T* made_brick(size_t b) {
+    T** at = &bricks_[b];
+    T* brick = __atomic_load_n(at, __ATOMIC_ACQUIRE);
+    if (brick) return brick;
+    const std::lock_guard<std::mutex> lock(making_);
+    brick = __atomic_load_n(at, __ATOMIC_ACQUIRE);  // made meanwhile by another thread?
+    if (!brick) {
+      if (used_ == kChunkBricks) {
+        chunks_.push_back(zeroed_slots<T>(kChunkBricks * kBrickSlots));
+        used_ = 0;
+      }
+      brick = chunks_.back().get() + kBrickSlots * used_++;
+      __atomic_store_n(at, brick, __ATOMIC_RELEASE);
+    }
+    return brick;
   }
 
   /// How many bricks have been made (what the grid holds: this x kBrickSlots slots).

@@ -1,7 +1,10 @@
 #include "perception/localize/part_model_file.hpp"
 
 #include <elf.h>
+#include <fcntl.h>
 #include <link.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -13,12 +16,16 @@
 #include <system_error>
 #include <type_traits>
 
+#include "core/files.hpp"
+
 namespace weldtwin {
 namespace {
 
-constexpr char kMagic[8] = {'W', 'T', 'P', 'A', 'R', 'T', '0', '1'};  // bump the digits with the layout
-constexpr uint64_t kFormat = 1;                                       // ... and this: it joins the key
-constexpr size_t kHeaderBytes = sizeof kMagic + 2 * sizeof(uint64_t);
+using Magic = char[8];
+constexpr Magic kMagic = {'W', 'T', 'P', 'A', 'R', 'T', '0', '1'};        // bump the digits with the layout
+constexpr Magic kLookupMagic = {'W', 'T', 'L', 'O', 'O', 'K', '0', '1'};  // ... of either file
+constexpr uint64_t kFormat = 1;                                           // ... and this: it joins the key
+constexpr size_t kHeaderBytes = sizeof(Magic) + 2 * sizeof(uint64_t);
 constexpr uintmax_t kMaxFileBytes = uintmax_t{1} << 32;  // a larger file is not one of ours
 
 // A 64-bit hash of bytes, eight at a time (not cryptographic: it tells a damaged file or another input
@@ -122,6 +129,13 @@ class Reader {
     p_ += n * sizeof(T);
     return true;
   }
+  /// Passes over the next `bytes` (false when fewer are left), `at` their start.
+  bool skip(uint64_t bytes, const char*& at) {
+    if (bytes > static_cast<size_t>(end_ - p_)) return false;
+    at = p_;
+    p_ += bytes;
+    return true;
+  }
   bool done() const { return p_ == end_; }
 
  private:
@@ -139,10 +153,14 @@ void put_vectors(Writer& w, const std::vector<V>& vs) {
 }
 template <class V>
 bool get_vectors(Reader& r, std::vector<V>& vs) {
-  std::vector<typename V::Scalar> flat;
-  if (!r.get_all(flat) || flat.size() % V::SizeAtCompileTime != 0) return false;
-  vs.resize(flat.size() / V::SizeAtCompileTime);
-  for (size_t i = 0; i < vs.size(); ++i) vs[i] = Eigen::Map<const V>(flat.data() + i * V::SizeAtCompileTime);
+  constexpr size_t kBytes = V::SizeAtCompileTime * sizeof(typename V::Scalar);
+  uint64_t scalars = 0;
+  const char* at = nullptr;
+  if (!r.get(scalars) || scalars % V::SizeAtCompileTime != 0 ||
+      !r.skip(scalars * sizeof(typename V::Scalar), at))
+    return false;
+  vs.resize(scalars / V::SizeAtCompileTime);
+  for (size_t i = 0; i < vs.size(); ++i) std::memcpy(vs[i].data(), at + i * kBytes, kBytes);
   return true;
 }
 void put_vec3(Writer& w, const Vec3& v) {
@@ -231,13 +249,14 @@ bool read_payload(Reader& r, PartModel& m, Mesh& rest) {
   return m.beyond_dist.size() == m.beyond.size() && r.done();
 }
 
-// Removes the oldest model files of `dir` beyond `keep` (of this program's other builds, or other parts).
-void prune(const std::filesystem::path& dir, int keep) {
+// Removes the oldest files of `dir` ending in `ext` beyond `keep` (of this program's other builds, or other
+// parts).
+void prune(const std::filesystem::path& dir, const std::string& ext, int keep) {
   namespace fs = std::filesystem;
   std::error_code ec;
   std::vector<std::pair<fs::file_time_type, fs::path>> files;
   for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
-    if (it->path().extension() == ".part") files.emplace_back(it->last_write_time(ec), it->path());
+    if (it->path().extension() == ext) files.emplace_back(it->last_write_time(ec), it->path());
   if (static_cast<int>(files.size()) <= keep) return;
   std::sort(files.begin(), files.end());
   for (size_t i = 0; i + static_cast<size_t>(std::max(0, keep)) < files.size(); ++i)
@@ -250,7 +269,7 @@ uint64_t part_model_key(const Mesh& mesh, double min_z, const PartModelSetting& 
   static const std::string build = program_build_id();
   if (build.empty()) return 0;
   Hash h;
-  h.add(kMagic, sizeof kMagic);
+  h.add(kMagic, sizeof(Magic));
   h.add(kFormat);
   h.add(build.data(), build.size());
   h.add(static_cast<uint64_t>(mesh.vertices.size()));
@@ -302,10 +321,13 @@ std::string part_model_path(const std::string& dir, uint64_t key) {
   return (std::filesystem::path(dir) / name).string();
 }
 
-std::string save_part_model(const PartModel& model, const Mesh& rest, uint64_t key, const std::string& path,
-                            int keep_files) {
+namespace {
+
+// Writes magic, key, the body's size, the body and its checksum to `path`: whole under another name, then
+// renamed. Returns "" or why not.
+std::string write_checked(const std::string& path, const Magic& magic, uint64_t key,
+                          const std::vector<char>& body) {
   namespace fs = std::filesystem;
-  const std::vector<char> body = payload(model, rest);
   Hash sum;
   sum.add(body.data(), body.size());
   const uint64_t check = sum.value(), size = body.size();
@@ -317,7 +339,7 @@ std::string save_part_model(const PartModel& model, const Mesh& rest, uint64_t k
       path + ".tmp" + std::to_string(::getpid()) + "-" + std::to_string(std::random_device()());
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out.write(kMagic, sizeof kMagic);
+    out.write(magic, sizeof(Magic));
     out.write(reinterpret_cast<const char*>(&key), sizeof key);
     out.write(reinterpret_cast<const char*>(&size), sizeof size);
     out.write(body.data(), static_cast<std::streamsize>(body.size()));
@@ -334,39 +356,145 @@ std::string save_part_model(const PartModel& model, const Mesh& rest, uint64_t k
     fs::remove(tmp, ec);
     return why;
   }
-  if (!dir.empty()) prune(dir, keep_files);
   return "";
 }
 
-PartFileRead load_part_model(const std::string& path, uint64_t key, PartModel& model, Mesh& rest) {
-  std::error_code ec;
-  const uintmax_t bytes = std::filesystem::file_size(path, ec);
-  if (ec) return PartFileRead::kMissing;
+// A file mapped read-only, its pages read in at once (reading into a fresh buffer costs a page fault per
+// 4 kB of it: several times the time here).
+class MappedFile {
+ public:
+  MappedFile() = default;
+  MappedFile(const MappedFile&) = delete;
+  MappedFile& operator=(const MappedFile&) = delete;
+  ~MappedFile() {
+    if (data_) munmap(const_cast<char*>(data_), size_);
+  }
+  /// False when the file cannot be opened or mapped; an empty file maps to nothing.
+  bool map(const std::string& path) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return false;
+    struct stat st {};
+    bool ok = ::fstat(fd, &st) == 0 && S_ISREG(st.st_mode);
+    if (ok && st.st_size > 0) {
+      void* p = mmap(nullptr, static_cast<size_t>(st.st_size), PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd, 0);
+      ok = p != MAP_FAILED;
+      if (ok) data_ = static_cast<const char*>(p), size_ = static_cast<size_t>(st.st_size);
+    }
+    ::close(fd);
+    return ok;
+  }
+  const char* data() const { return data_; }
+  size_t size() const { return size_; }
+
+ private:
+  const char* data_ = nullptr;
+  size_t size_ = 0;
+};
+
+// Maps what write_checked wrote with `magic` and `key`; its body is at body_at(file), body_bytes(file) long.
+PartFileRead read_checked(const std::string& path, const Magic& magic, uint64_t key, MappedFile& file) {
+  if (!is_file(path)) return PartFileRead::kMissing;
+  if (!file.map(path)) return PartFileRead::kDamaged;
+  const size_t bytes = file.size();
   if (bytes < kHeaderBytes + sizeof(uint64_t) || bytes > kMaxFileBytes) return PartFileRead::kDamaged;
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return PartFileRead::kMissing;
-  char magic[sizeof kMagic];
-  uint64_t file_key = 0, size = 0;
-  in.read(magic, sizeof magic);
-  in.read(reinterpret_cast<char*>(&file_key), sizeof file_key);
-  in.read(reinterpret_cast<char*>(&size), sizeof size);
-  if (!in) return PartFileRead::kDamaged;
-  if (std::memcmp(magic, kMagic, sizeof kMagic) != 0 || file_key != key) return PartFileRead::kOtherKey;
+  uint64_t file_key = 0, size = 0, check = 0;
+  std::memcpy(&file_key, file.data() + sizeof(Magic), sizeof file_key);
+  std::memcpy(&size, file.data() + sizeof(Magic) + sizeof file_key, sizeof size);
+  if (std::memcmp(file.data(), magic, sizeof(Magic)) != 0 || file_key != key) return PartFileRead::kOtherKey;
   if (size != bytes - kHeaderBytes - sizeof(uint64_t)) return PartFileRead::kDamaged;
-  std::vector<char> body(size);
-  uint64_t check = 0;
-  in.read(body.data(), static_cast<std::streamsize>(size));
-  in.read(reinterpret_cast<char*>(&check), sizeof check);
-  if (!in) return PartFileRead::kDamaged;
+  std::memcpy(&check, file.data() + kHeaderBytes + size, sizeof check);
   Hash sum;
-  sum.add(body.data(), body.size());
-  if (sum.value() != check) return PartFileRead::kDamaged;
+  sum.add(file.data() + kHeaderBytes, size);
+  return sum.value() == check ? PartFileRead::kRead : PartFileRead::kDamaged;
+}
+const char* body_at(const MappedFile& file) {
+  return file.data() + kHeaderBytes;
+}
+size_t body_bytes(const MappedFile& file) {
+  return file.size() - kHeaderBytes - sizeof(uint64_t);
+}
+
+void prune_beside(const std::string& path, const char* ext, int keep) {
+  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  if (!dir.empty()) prune(dir, ext, keep);
+}
+
+}  // namespace
+
+std::string save_part_model(const PartModel& model, const Mesh& rest, uint64_t key, const std::string& path,
+                            int keep_files) {
+  const std::string why = write_checked(path, kMagic, key, payload(model, rest));
+  if (why.empty()) prune_beside(path, ".part", keep_files);
+  return why;
+}
+
+PartFileRead load_part_model(const std::string& path, uint64_t key, PartModel& model, Mesh& rest) {
+  MappedFile file;
+  const PartFileRead got = read_checked(path, kMagic, key, file);
+  if (got != PartFileRead::kRead) return got;
   PartModel read;
   Mesh read_rest;
-  Reader r(body.data(), body.size());
+  Reader r(body_at(file), body_bytes(file));
   if (!read_payload(r, read, read_rest)) return PartFileRead::kDamaged;
   model = std::move(read);
   rest = std::move(read_rest);
+  return PartFileRead::kRead;
+}
+
+std::string part_lookups_path(const std::string& part_path) {
+  return std::filesystem::path(part_path).replace_extension(".lookup").string();
+}
+
+std::string save_part_lookups(const PartModel& model, uint64_t key, const std::string& path, int keep_files) {
+  using Slots = BrickSlots<int>;
+  Writer w;
+  const size_t capacity = model.cache.brick_capacity();
+  w.put(static_cast<uint64_t>(capacity));
+  std::vector<int> slots(Slots::kBrickSlots);
+  for (size_t b = 0; b < capacity; ++b) {
+    const int* brick = model.cache.brick(b);
+    if (!brick) continue;
+    for (size_t i = 0; i < Slots::kBrickSlots; ++i) slots[i] = __atomic_load_n(brick + i, __ATOMIC_RELAXED);
+    w.put(static_cast<uint64_t>(b));
+    w.put_all(slots);
+  }
+  const std::string why = write_checked(path, kLookupMagic, key, w.bytes());
+  if (why.empty()) prune_beside(path, ".lookup", keep_files);
+  return why;
+}
+
+PartFileRead load_part_lookups(const std::string& path, uint64_t key, PartModel& model) {
+  constexpr size_t kSlots = BrickSlots<int>::kBrickSlots;
+  constexpr size_t kBrickBytes = 2 * sizeof(uint64_t) + kSlots * sizeof(int);  // index, count, slots
+  MappedFile file;
+  const PartFileRead got = read_checked(path, kLookupMagic, key, file);
+  if (got != PartFileRead::kRead) return got;
+  const char* body = body_at(file);
+  const size_t body_size = body_bytes(file);
+  // Checked whole before any of it goes in: bricks of this grid, each slot empty or a sample's answer.
+  uint64_t capacity = 0;
+  if (body_size < sizeof capacity || (body_size - sizeof capacity) % kBrickBytes != 0)
+    return PartFileRead::kDamaged;
+  std::memcpy(&capacity, body, sizeof capacity);
+  if (capacity != model.cache.brick_capacity()) return PartFileRead::kDamaged;
+  const size_t bricks = (body_size - sizeof capacity) / kBrickBytes;
+  const char* first = body + sizeof capacity;
+  const int most = static_cast<int>(model.pts.size()) + 1;  // a slot holds 0, or the answer (-1..n-1) + 2
+  for (size_t k = 0; k < bricks; ++k) {
+    uint64_t head[2];
+    std::memcpy(head, first + k * kBrickBytes, sizeof head);
+    if (head[0] >= capacity || head[1] != kSlots) return PartFileRead::kDamaged;
+    int slots[kSlots];
+    std::memcpy(slots, first + k * kBrickBytes + sizeof head, sizeof slots);
+    for (int v : slots)
+      if (v < 0 || v > most) return PartFileRead::kDamaged;
+  }
+  for (size_t k = 0; k < bricks; ++k) {
+    uint64_t b = 0;
+    std::memcpy(&b, first + k * kBrickBytes, sizeof b);
+    int* brick = model.cache.made_brick(b);
+    std::memcpy(brick, first + k * kBrickBytes + 2 * sizeof(uint64_t), kSlots * sizeof(int));
+  }
   return PartFileRead::kRead;
 }
 

@@ -195,6 +195,71 @@ TEST(PartModelFile, AnotherKeyOrADamagedFileIsRefusedAndLeavesTheModelAlone) {
   EXPECT_EQ(read_as(claims, key), PartFileRead::kDamaged);
 }
 
+TEST(PartModelFile, TheLookupsReadBackAnswerAsTheyWereAskedAndNothingElseGetsIn) {
+  const Mesh mesh = tube_mesh();
+  const PartModelSetting setting;
+  const Mesh rest = resting_mesh(mesh, 0.0);
+  PartModel asked;
+  build_part_model_at_rest(rest, setting, 0, asked);
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<Vec3> qs;
+  for (int i = 0; i < 4000; ++i)
+    qs.push_back(asked.lo + (asked.hi - asked.lo).cwiseProduct(Vec3(u(rng), u(rng), u(rng))));
+  std::vector<int> answers;
+  for (const Vec3& q : qs) answers.push_back(asked.nearest(q));
+  const fs::path dir = fresh_dir("lookups");
+  const std::string path = part_lookups_path(part_model_path(dir.string(), 42));
+  EXPECT_EQ(fs::path(path).extension(), ".lookup");
+  ASSERT_EQ(save_part_lookups(asked, 42, path), "");
+
+  // Read into a fresh model: the bricks asked about are there, with the answers the asking gave, and every
+  // answer (those and any other) is the one a model that was never read gives.
+  PartModel fresh;
+  build_part_model_at_rest(rest, setting, 0, fresh);
+  ASSERT_EQ(load_part_lookups(path, 42, fresh), PartFileRead::kRead);
+  EXPECT_EQ(fresh.cache.bricks_made(), asked.cache.bricks_made());
+  PartModel never;
+  build_part_model_at_rest(rest, setting, 0, never);
+  for (size_t i = 0; i < qs.size(); ++i) {
+    const Vec3& q = qs[i];
+    const long ix = static_cast<long>((q.x() - fresh.cache_origin.x()) / fresh.cache_cell),
+               iy = static_cast<long>((q.y() - fresh.cache_origin.y()) / fresh.cache_cell),
+               iz = static_cast<long>((q.z() - fresh.cache_origin.z()) / fresh.cache_cell);
+    ASSERT_EQ(*fresh.cache.slot(ix, iy, iz), answers[i] + 2);  // read, not asked again
+    ASSERT_EQ(fresh.nearest(q), answers[i]);
+    ASSERT_EQ(never.nearest(q), answers[i]);
+    const Vec3 other = q + Vec3(0.0037, -0.0021, 0.0013);
+    ASSERT_EQ(fresh.nearest(other), never.nearest(other));
+  }
+
+  // Another key, a damaged file, another grid's file, an answer no sample has: refused, the grid untouched.
+  auto refused = [&](const std::string& p, uint64_t key) {
+    PartModel m;
+    build_part_model_at_rest(rest, setting, 0, m);
+    const PartFileRead got = load_part_lookups(p, key, m);
+    EXPECT_EQ(m.cache.bricks_made(), 0u);
+    return got;
+  };
+  EXPECT_EQ(refused(path, 43), PartFileRead::kOtherKey);
+  std::vector<char> bytes = bytes_of(path);
+  bytes[bytes.size() / 2] = static_cast<char>(bytes[bytes.size() / 2] ^ 4);
+  write_bytes(dir / "damaged.lookup", bytes);
+  EXPECT_EQ(refused((dir / "damaged.lookup").string(), 42), PartFileRead::kDamaged);
+  PartModelSetting finer = setting;
+  finer.lookup_cell_m = 0.0008;
+  PartModel other_grid;
+  build_part_model_at_rest(rest, finer, 0, other_grid);
+  other_grid.nearest(qs[0]);
+  ASSERT_EQ(save_part_lookups(other_grid, 42, (dir / "other_grid.lookup").string()), "");
+  EXPECT_EQ(refused((dir / "other_grid.lookup").string(), 42), PartFileRead::kDamaged);
+  PartModel wrong;
+  build_part_model_at_rest(rest, setting, 0, wrong);
+  *wrong.cache.slot(3, 3, 3) = static_cast<int>(wrong.pts.size()) + 2;  // the answer n: no such sample
+  ASSERT_EQ(save_part_lookups(wrong, 42, (dir / "wrong.lookup").string()), "");
+  EXPECT_EQ(refused((dir / "wrong.lookup").string(), 42), PartFileRead::kDamaged);
+}
+
 TEST(PartModelFile, OnlyTheNewestFilesAreKept) {
   const Mesh mesh = tube_mesh();
   const Mesh rest = resting_mesh(mesh, 0.0);
@@ -224,13 +289,21 @@ TEST(PartModelFile, ARunThatReadsThePartAnswersAsTheRunThatBuiltIt) {
       localize(scan.cloud, PreparedPart(mesh), LocalizeSetting(), seams, scan.viewpoints);
   const PoseEstimate first = localize(scan.cloud, PreparedPart(mesh, LocalizeSetting(), true, dir.string()),
                                       LocalizeSetting(), seams, scan.viewpoints);
-  const PoseEstimate second = localize(scan.cloud, PreparedPart(mesh, LocalizeSetting(), false, dir.string()),
-                                       LocalizeSetting(), seams, scan.viewpoints);
+  const PreparedPart reading(mesh, LocalizeSetting(), false, dir.string());
+  const PoseEstimate second = localize(scan.cloud, reading, LocalizeSetting(), seams, scan.viewpoints);
+  // Its lookups kept, a third run starts with them and answers the same.
+  EXPECT_EQ(reading.keep_lookups(), "");
+  const std::string lookups =
+      part_lookups_path(part_model_path(dir.string(), part_model_key(mesh, 0.0, LocalizeSetting().model)));
+  EXPECT_TRUE(fs::exists(lookups));
+  const PoseEstimate third = localize(scan.cloud, PreparedPart(mesh, LocalizeSetting(), false, dir.string()),
+                                      LocalizeSetting(), seams, scan.viewpoints);
+  EXPECT_EQ(third.part_file, "read");
   EXPECT_EQ(off.part_file, "off");
   EXPECT_EQ(first.part_file, "written");
   EXPECT_EQ(second.part_file, "read");
   ASSERT_TRUE(off.found) << off.reason;
-  for (const PoseEstimate* p : {&first, &second}) {
+  for (const PoseEstimate* p : {&first, &second, &third}) {
     EXPECT_EQ(p->found, off.found);
     EXPECT_TRUE(p->T_base_part.matrix() == off.T_base_part.matrix());
     EXPECT_EQ(p->fitness, off.fitness);
