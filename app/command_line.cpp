@@ -1,6 +1,11 @@
 #include "app/command_line.hpp"
 
 #include <malloc.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <cstdint>
+#include <cstdlib>
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
@@ -14,6 +19,20 @@ void keep_freed_memory_for_reuse() {
   mallopt(M_MMAP_THRESHOLD, 64 << 20);
   mallopt(M_TRIM_THRESHOLD, 64 << 20);
   mallopt(M_TOP_PAD, 16 << 20);
+}
+
+void heap_in_huge_pages() {
+  constexpr size_t kHeap = size_t{64} << 20;
+  constexpr uintptr_t kHuge = uintptr_t{2} << 20;
+  mallopt(M_MMAP_THRESHOLD, static_cast<int>(kHeap));
+  mallopt(M_TRIM_THRESHOLD, static_cast<int>(kHeap));
+  mallopt(M_TOP_PAD, static_cast<int>(kHeap));
+  mallopt(M_ARENA_MAX, 1);
+  void* first = malloc(size_t{8} << 20);  // more than the heap has free: it grows by this and the top pad
+  const uintptr_t lo = (reinterpret_cast<uintptr_t>(first) + kHuge - 1) & ~(kHuge - 1),
+                  hi = reinterpret_cast<uintptr_t>(sbrk(0)) & ~(kHuge - 1);
+  if (first && hi > lo) madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_HUGEPAGE);
+  free(first);
 }
 
 int parse_command_line(CLI::App& app, int argc, char** argv) {

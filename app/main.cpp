@@ -37,7 +37,7 @@ int main(int argc, char** argv) {
                  std::strerror(errno));
     return 1;
   }
-  weldtwin::keep_freed_memory_for_reuse();
+  weldtwin::heap_in_huge_pages();
   CLI::App app;
   weldtwin::describe_weldtwin(app);
   app.require_subcommand(1);

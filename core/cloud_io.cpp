@@ -21,6 +21,7 @@
 
 #include "core/error.hpp"
 #include "core/files.hpp"
+#include "core/mapped_file.hpp"
 
 namespace weldtwin {
 namespace {
@@ -28,16 +29,11 @@ namespace {
 // LZF's longest back-reference copies 264 bytes from 3: no LZF block expands more than about 88-fold.
 constexpr size_t kLzfMaxRatio = 90;
 
-std::string read_file(const std::string& path) {
+// The file's bytes (mapped: core/mapped_file.hpp), or an InputError naming it.
+void map_file(const std::string& path, MappedFile& file) {
   if (!is_file(path)) throw input_error(path, "no such file");
-  std::ifstream in(path, std::ios::binary | std::ios::ate);
-  if (!in) throw input_error(path, "cannot open the file");
-  const std::streamoff size = in.tellg();
-  if (size <= 0) throw input_error(path, "empty file");
-  std::string data(static_cast<size_t>(size), '\0');  // what the file holds, read in one go
-  in.seekg(0);
-  if (!in.read(data.data(), size)) throw input_error(path, "cannot read the file");
-  return data;
+  if (!file.map(path)) throw input_error(path, "cannot open the file");
+  if (file.size() == 0) throw input_error(path, "empty file");
 }
 
 // A scalar of `size` bytes and kind F (float), I (signed) or U (unsigned) at p, as a double.
@@ -154,7 +150,9 @@ void collect(const Vec3& p, const Vec3& v, bool with_vp, std::vector<Vec3>& out,
 }
 
 std::vector<Vec3> read_pcd(const std::string& path, size_t& dropped, std::vector<Vec3>* viewpoints) {
-  const std::string data = read_file(path);
+  MappedFile file;
+  map_file(path, file);
+  const std::string_view data = file.view();
   Layout L;
   std::vector<std::string> names, sizes, types, counts;
   size_t points = 0, width = 0, height = 1, pos = 0;
@@ -169,7 +167,7 @@ std::vector<Vec3> read_pcd(const std::string& path, size_t& dropped, std::vector
   while (pos < data.size() && format.empty()) {
     const size_t eol = data.find('\n', pos);
     if (eol == std::string::npos) break;
-    const std::string line = data.substr(pos, eol - pos);
+    const std::string line(data.substr(pos, eol - pos));
     pos = eol + 1;
     std::vector<std::string> w = words(line);
     if (w.empty() || w[0][0] == '#') continue;
@@ -331,7 +329,9 @@ std::vector<Vec3> read_pcd(const std::string& path, size_t& dropped, std::vector
 // read too, polygons as fans of triangles.
 std::vector<Vec3> read_ply(const std::string& path, size_t& dropped, std::vector<Vec3>* viewpoints,
                            std::vector<Eigen::Vector3i>* mesh = nullptr) {
-  const std::string data = read_file(path);
+  MappedFile file;
+  map_file(path, file);
+  const std::string_view data = file.view();
   struct Prop {
     std::string name;
     char kind = 'F';
@@ -367,7 +367,7 @@ std::vector<Vec3> read_ply(const std::string& path, size_t& dropped, std::vector
   while (pos < data.size()) {
     const size_t eol = data.find('\n', pos);
     if (eol == std::string::npos) break;
-    std::istringstream line(data.substr(pos, eol - pos));
+    std::istringstream line(std::string(data.substr(pos, eol - pos)));
     pos = eol + 1;
     std::string key;
     line >> key;

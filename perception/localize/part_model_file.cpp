@@ -1,10 +1,7 @@
 #include "perception/localize/part_model_file.hpp"
 
 #include <elf.h>
-#include <fcntl.h>
 #include <link.h>
-#include <sys/mman.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -17,6 +14,7 @@
 #include <type_traits>
 
 #include "core/files.hpp"
+#include "core/mapped_file.hpp"
 
 namespace weldtwin {
 namespace {
@@ -358,38 +356,6 @@ std::string write_checked(const std::string& path, const Magic& magic, uint64_t 
   }
   return "";
 }
-
-// A file mapped read-only, its pages read in at once (reading into a fresh buffer costs a page fault per
-// 4 kB of it: several times the time here).
-class MappedFile {
- public:
-  MappedFile() = default;
-  MappedFile(const MappedFile&) = delete;
-  MappedFile& operator=(const MappedFile&) = delete;
-  ~MappedFile() {
-    if (data_) munmap(const_cast<char*>(data_), size_);
-  }
-  /// False when the file cannot be opened or mapped; an empty file maps to nothing.
-  bool map(const std::string& path) {
-    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd < 0) return false;
-    struct stat st {};
-    bool ok = ::fstat(fd, &st) == 0 && S_ISREG(st.st_mode);
-    if (ok && st.st_size > 0) {
-      void* p = mmap(nullptr, static_cast<size_t>(st.st_size), PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd, 0);
-      ok = p != MAP_FAILED;
-      if (ok) data_ = static_cast<const char*>(p), size_ = static_cast<size_t>(st.st_size);
-    }
-    ::close(fd);
-    return ok;
-  }
-  const char* data() const { return data_; }
-  size_t size() const { return size_; }
-
- private:
-  const char* data_ = nullptr;
-  size_t size_ = 0;
-};
 
 // Maps what write_checked wrote with `magic` and `key`; its body is at body_at(file), body_bytes(file) long.
 PartFileRead read_checked(const std::string& path, const Magic& magic, uint64_t key, MappedFile& file) {

@@ -52,6 +52,7 @@ TablePlane find_table_plane(const std::vector<Vec3>& scan, const TablePlaneSetti
   if (near.size() < kMinPoints) return out;
   Cloud::Ptr rest(new Cloud);
   const size_t stride = std::max<size_t>(1, near.size() / static_cast<size_t>(s.sample_points));
+  rest->reserve(near.size() / stride + 1);
   for (size_t i = 0; i < near.size(); i += stride) rest->push_back(pt(*near[i]));
   std::vector<Found> planes;
   pcl::SACSegmentation<pcl::PointXYZ> seg;
@@ -80,6 +81,7 @@ TablePlane find_table_plane(const std::vector<Vec3>& scan, const TablePlaneSetti
     }
     planes.push_back({p, cells.size()});
     Cloud::Ptr next(new Cloud);
+    next->reserve(rest->size() - inliers.indices.size());
     std::vector<char> drop(rest->size(), 0);
     for (int i : inliers.indices) drop[static_cast<size_t>(i)] = 1;
     for (size_t i = 0; i < rest->size(); ++i)

@@ -11,6 +11,7 @@
 
 #include "app/mount_file.hpp"
 #include "core/cell_robot.hpp"
+#include "core/cloud_io.hpp"
 #include "tests/real_data.hpp"
 #include "tests/test_support.hpp"
 
@@ -243,6 +244,48 @@ TEST(Cli, ScanWritesLogCloudAndTruth) {
   EXPECT_EQ(a["T_base_part"], b["T_base_part"]);
   expect_bad_input(weldtwin("localize --scan " + scan + " --out " + (dir / "c.json").string()),
                    "--part SPEC");
+}
+
+TEST(Cli, LocalizeKeepsThePreparedPartForTheNextRunAndAnswersTheSame) {
+  // A twin scan localized three times with a folder for kept parts: the first run prepares the part and
+  // keeps it, the next ones read it (and its lookups), and all give the pose of a run that keeps nothing.
+  // --no-part-cache and WELDTWIN_PART_CACHE=off keep nothing.
+  const auto dir = std::filesystem::temp_directory_path() / "weldtwin_cli_part_cache";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const test::TwinScan twin = test::twin_scan("scenes/cells/default.yaml", 6);
+  const std::string scan = (dir / "scan.pcd").string(), kept = (dir / "kept").string();
+  write_pcd(scan, twin.cloud, false, &twin.viewpoints);
+  const std::string base = "localize -q --part " + test::repo("scenes/parts/tube_on_plate.yaml") +
+                           " --scan " + scan + " --out " + dir.string() + "/";
+  auto pose = [&](const std::string& name) {
+    nlohmann::json j;
+    std::ifstream(dir / name) >> j;
+    return j;
+  };
+  ASSERT_EQ(weldtwin(base + "off.json --no-part-cache --part-cache " + kept).code, 0);
+  EXPECT_FALSE(std::filesystem::exists(kept));
+  for (const char* run : {"1.json", "2.json", "3.json"})
+    ASSERT_EQ(weldtwin(base + run + " --part-cache " + kept).code, 0) << run;
+  EXPECT_EQ(pose("off.json")["part_cache"], "off");
+  EXPECT_EQ(pose("1.json")["part_cache"], "written");
+  EXPECT_EQ(pose("2.json")["part_cache"], "read");
+  EXPECT_EQ(pose("3.json")["part_cache"], "read");
+  for (const char* run : {"1.json", "2.json", "3.json"}) {
+    EXPECT_EQ(pose(run)["T_base_part"], pose("off.json")["T_base_part"]) << run;
+    EXPECT_EQ(pose(run)["seam_error_bound_mm"], pose("off.json")["seam_error_bound_mm"]) << run;
+  }
+  size_t parts = 0, lookups = 0;
+  for (const auto& e : std::filesystem::directory_iterator(kept)) {
+    parts += e.path().extension() == ".part";
+    lookups += e.path().extension() == ".lookup";
+  }
+  EXPECT_EQ(parts, 1u);
+  EXPECT_EQ(lookups, 1u);
+  const std::string off =
+      "WELDTWIN_PART_CACHE=off " + std::string(WELDTWIN_BINARY) + " " + base + "env_off.json >/dev/null 2>&1";
+  ASSERT_EQ(std::system(off.c_str()), 0);
+  EXPECT_EQ(pose("env_off.json")["part_cache"], "off");
 }
 
 // Clouds from another tool that are no table scene in a robot's base frame (PCL's own test clouds, where the
