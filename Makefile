@@ -95,7 +95,7 @@ localize-survey: build
 # fuzz/make_seeds.py (and the corpus kept in $(BUILD)-fuzz/corpus); a finding stops it with the input saved.
 # FUZZ_REAL=DIR adds real files (bags, RPLIDAR captures, controller messages) from DIR to the seeds.
 FUZZ_SECONDS ?= 600
-FUZZ_HARNESSES ?= cloud mesh part_spec cell_spec scan_log pose_plan ros_bag rplidar aubo_messages
+FUZZ_HARNESSES ?= cloud mesh part_spec cell_spec scan_log pose_plan ros_bag rplidar aubo_messages part_file
 FUZZ_REAL ?=
 # FUZZ_RUNS=N stops a harness after N executions (or FUZZ_SECONDS, whichever comes first; -1: no count).
 FUZZ_RUNS ?= -1

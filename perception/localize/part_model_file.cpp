@@ -205,7 +205,7 @@ std::vector<char> payload(const PartModel& m, const Mesh& rest) {
 }
 
 // Reads the payload into `m` and `rest`; false when it is cut short, too long, or its fields do not fit
-// together (then `m` and `rest` may hold part of it: the caller reads into scratch ones).
+// together (then `m` and `rest` may hold part of it).
 bool read_payload(Reader& r, PartModel& m, Mesh& rest) {
   if (!get_vectors(r, rest.vertices) || !get_vectors(r, rest.faces)) return false;
   for (const Eigen::Vector3i& f : rest.faces)
@@ -398,13 +398,18 @@ PartFileRead load_part_model(const std::string& path, uint64_t key, PartModel& m
   MappedFile file;
   const PartFileRead got = read_checked(path, kMagic, key, file);
   if (got != PartFileRead::kRead) return got;
+  return read_part_model_body(body_at(file), body_bytes(file), model, rest) ? PartFileRead::kRead
+                                                                            : PartFileRead::kDamaged;
+}
+
+bool read_part_model_body(const char* data, size_t size, PartModel& model, Mesh& rest) {
   PartModel read;
   Mesh read_rest;
-  Reader r(body_at(file), body_bytes(file));
-  if (!read_payload(r, read, read_rest)) return PartFileRead::kDamaged;
+  Reader r(data, size);
+  if (!read_payload(r, read, read_rest)) return false;
   model = std::move(read);
   rest = std::move(read_rest);
-  return PartFileRead::kRead;
+  return true;
 }
 
 std::string part_lookups_path(const std::string& part_path) {
@@ -430,30 +435,32 @@ std::string save_part_lookups(const PartModel& model, uint64_t key, const std::s
 }
 
 PartFileRead load_part_lookups(const std::string& path, uint64_t key, PartModel& model) {
-  constexpr size_t kSlots = BrickSlots<int>::kBrickSlots;
-  constexpr size_t kBrickBytes = 2 * sizeof(uint64_t) + kSlots * sizeof(int);  // index, count, slots
   MappedFile file;
   const PartFileRead got = read_checked(path, kLookupMagic, key, file);
   if (got != PartFileRead::kRead) return got;
-  const char* body = body_at(file);
-  const size_t body_size = body_bytes(file);
+  return read_part_lookups_body(body_at(file), body_bytes(file), model) ? PartFileRead::kRead
+                                                                        : PartFileRead::kDamaged;
+}
+
+bool read_part_lookups_body(const char* body, size_t body_size, PartModel& model) {
+  constexpr size_t kSlots = BrickSlots<int>::kBrickSlots;
+  constexpr size_t kBrickBytes = 2 * sizeof(uint64_t) + kSlots * sizeof(int);  // index, count, slots
   // Checked whole before any of it goes in: bricks of this grid, each slot empty or a sample's answer.
   uint64_t capacity = 0;
-  if (body_size < sizeof capacity || (body_size - sizeof capacity) % kBrickBytes != 0)
-    return PartFileRead::kDamaged;
+  if (body_size < sizeof capacity || (body_size - sizeof capacity) % kBrickBytes != 0) return false;
   std::memcpy(&capacity, body, sizeof capacity);
-  if (capacity != model.cache.brick_capacity()) return PartFileRead::kDamaged;
+  if (capacity != model.cache.brick_capacity()) return false;
   const size_t bricks = (body_size - sizeof capacity) / kBrickBytes;
   const char* first = body + sizeof capacity;
   const int most = static_cast<int>(model.pts.size()) + 1;  // a slot holds 0, or the answer (-1..n-1) + 2
   for (size_t k = 0; k < bricks; ++k) {
     uint64_t head[2];
     std::memcpy(head, first + k * kBrickBytes, sizeof head);
-    if (head[0] >= capacity || head[1] != kSlots) return PartFileRead::kDamaged;
+    if (head[0] >= capacity || head[1] != kSlots) return false;
     int slots[kSlots];
     std::memcpy(slots, first + k * kBrickBytes + sizeof head, sizeof slots);
     for (int v : slots)
-      if (v < 0 || v > most) return PartFileRead::kDamaged;
+      if (v < 0 || v > most) return false;
   }
   for (size_t k = 0; k < bricks; ++k) {
     uint64_t b = 0;
@@ -461,7 +468,7 @@ PartFileRead load_part_lookups(const std::string& path, uint64_t key, PartModel&
     int* brick = model.cache.made_brick(b);
     std::memcpy(brick, first + k * kBrickBytes + 2 * sizeof(uint64_t), kSlots * sizeof(int));
   }
-  return PartFileRead::kRead;
+  return true;
 }
 
 }  // namespace weldtwin

@@ -42,6 +42,12 @@ PartFileRead load_part_model(const std::string& path, uint64_t key, PartModel& m
 // scan, and a part's scans ask about much the same places, so that a run can start with the answers of the
 // runs before. Beside the model's file, under the same key.
 
+/// The parsers of the files' bodies (what follows the header, before the checksum), for the fuzz harness:
+/// false when the body is cut short, too long, or its fields do not fit together (the model's, the grid's
+/// bricks, each slot empty or a sample's answer); then the model (and `rest`) are left as they were.
+bool read_part_model_body(const char* data, size_t size, PartModel& model, Mesh& rest);
+bool read_part_lookups_body(const char* data, size_t size, PartModel& model);
+
 /// The lookups' file beside the model's file `part_path`.
 std::string part_lookups_path(const std::string& part_path);
 
