@@ -123,15 +123,15 @@ class Reader {
     uint64_t n = 0;
     if (!get(n) || n > static_cast<size_t>(end_ - p_) / sizeof(T)) return false;
     values.resize(n);
-    std::memcpy(static_cast<void*>(values.data()), p_, n * sizeof(T));
+    if (n > 0) std::memcpy(static_cast<void*>(values.data()), p_, n * sizeof(T));
     p_ += n * sizeof(T);
     return true;
   }
-  /// Passes over the next `bytes` (false when fewer are left), `at` their start.
-  bool skip(uint64_t bytes, const char*& at) {
-    if (bytes > static_cast<size_t>(end_ - p_)) return false;
+  /// Passes over the next `count` items of `item_bytes` each (false when fewer are left), `at` their start.
+  bool skip(uint64_t count, size_t item_bytes, const char*& at) {
+    if (count > static_cast<size_t>(end_ - p_) / item_bytes) return false;
     at = p_;
-    p_ += bytes;
+    p_ += count * item_bytes;
     return true;
   }
   bool done() const { return p_ == end_; }
@@ -155,7 +155,7 @@ bool get_vectors(Reader& r, std::vector<V>& vs) {
   uint64_t scalars = 0;
   const char* at = nullptr;
   if (!r.get(scalars) || scalars % V::SizeAtCompileTime != 0 ||
-      !r.skip(scalars * sizeof(typename V::Scalar), at))
+      !r.skip(scalars, sizeof(typename V::Scalar), at))
     return false;
   vs.resize(scalars / V::SizeAtCompileTime);
   for (size_t i = 0; i < vs.size(); ++i) std::memcpy(vs[i].data(), at + i * kBytes, kBytes);

@@ -188,6 +188,12 @@ TEST(PartModelFile, AnotherKeyOrADamagedFileIsRefusedAndLeavesTheModelAlone) {
   std::vector<char> longer = good;
   longer.push_back(0);
   EXPECT_EQ(read_as(longer, key), PartFileRead::kDamaged);
+  // A body whose counts claim more than it holds (2^61 vertices: the count times 8 bytes wraps to 0) is
+  // refused without allocating for them (found by fuzz_part_file).
+  const unsigned char wraps[16] = {0, 0, 0, 0, 0, 0, 0, 0x60, 0, 0, 0, 0, 0, 0, 0xb7, 0x08};
+  PartModel m;
+  Mesh r;
+  EXPECT_FALSE(read_part_model_body(reinterpret_cast<const char*>(wraps), sizeof wraps, m, r));
   // A header that claims more than the file holds is refused before anything is allocated for it.
   std::vector<char> claims = good;
   const uint64_t huge = uint64_t{1} << 40;
