@@ -1,7 +1,7 @@
 // Kept prepared parts (perception/localize/part_model_file.hpp): the first byte picks the body parser (the
-// part model's, or its lookups' with a grid of 12 x 10 x 8 bricks and a model of up to 255 samples, from the
-// second byte), the rest is the body. A damaged body must be refused (false) and leave the model alone;
-// anything else (a signal, a sanitizer report, an exception) is a finding.
+// part model's, or its lookups' with a grid of 12 x 10 x 8 bricks, no closest-face grid and a model of up to
+// 255 samples, from the second byte), the rest is the body. A damaged body must be refused (false) and leave
+// the model alone; anything else (a signal, a sanitizer report, an exception) is a finding.
 #include <cstdint>
 #include <cstdlib>
 
@@ -23,6 +23,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   model.pts.resize(data[1]);
   model.cache = weldtwin::BrickSlots<int>(48, 40, 32);
-  if (!weldtwin::read_part_lookups_body(body, n, model) && model.cache.bricks_made() != 0) std::abort();
+  if (!weldtwin::read_part_lookups_body(body, n, model, 100) && model.cache.bricks_made() != 0) std::abort();
   return 0;
 }

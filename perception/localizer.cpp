@@ -32,12 +32,12 @@ LocalizeSetting localize_setting_for(const PartSpec& part, LocalizeSetting base)
 struct PreparedPart::Impl {
   PartModel model;
   double min_z = 0.0;  ///< the mesh's lowest vertex: the resting frame is the mesh frame lifted by it
-  double model_spacing_m = 0.0;    ///< the setting it was prepared with
-  std::shared_future<void> ready;  ///< the model built (or its error)
-  std::string part_file = "off";   ///< PoseEstimate::part_file
-  uint64_t key = 0;                ///< of the kept files (0: none kept)
-  std::string path;                ///< the model's kept file
-  size_t bricks_read = 0;          ///< the lookup grid's bricks read from the kept lookups
+  double model_spacing_m = 0.0;            ///< the setting it was prepared with
+  std::shared_future<void> ready;          ///< the model built (or its error)
+  std::string part_file = "off";           ///< PoseEstimate::part_file
+  uint64_t key = 0;                        ///< of the kept files (0: none kept)
+  std::string path;                        ///< the model's kept file
+  size_t bricks_read = 0, cells_read = 0;  ///< the lookup grids' bricks and cells read from the kept lookups
 
   void build(const Mesh& mesh, const LocalizeSetting& setting, const std::string& keep_dir) {
     min_z = 1e9;
@@ -52,8 +52,10 @@ struct PreparedPart::Impl {
     Mesh rest;
     if (load_part_model(path, key, model, rest) == PartFileRead::kRead) {
       make_lookups(rest, setting.model, model);
-      if (load_part_lookups(part_lookups_path(path), key, model) == PartFileRead::kRead)
+      if (load_part_lookups(part_lookups_path(path), key, model, rest.faces.size()) == PartFileRead::kRead) {
         bricks_read = model.cache.bricks_made();
+        cells_read = model.surface->cells_made();
+      }
       part_file = "read";
       return;
     }
@@ -83,9 +85,11 @@ PreparedPart::PreparedPart(const Mesh& mesh, const LocalizeSetting& setting, boo
 std::string PreparedPart::keep_lookups() const {
   impl_->ready.get();
   const Impl& p = *impl_;
-  constexpr size_t kMinNewBricks = 64, kNewShare = 20;  // write when grown by 64 bricks and a twentieth
-  const size_t made = p.model.cache.bricks_made();
-  if (p.key == 0 || made < p.bricks_read + std::max(kMinNewBricks, p.bricks_read / kNewShare)) return "";
+  constexpr size_t kMinNew = 64, kNewShare = 20;  // written when a grid grew by 64 and a twentieth
+  auto grown = [&](size_t made, size_t read) { return made >= read + std::max(kMinNew, read / kNewShare); };
+  if (p.key == 0 || !(grown(p.model.cache.bricks_made(), p.bricks_read) ||
+                      grown(p.model.surface->cells_made(), p.cells_read)))
+    return "";
   return save_part_lookups(p.model, p.key, part_lookups_path(p.path));
 }
 

@@ -58,6 +58,14 @@ const ClosestGrid::Cell* ClosestGrid::cell_at(long ix, long iy, long iz) const {
   return expected;  // another thread filled it first (with the same faces)
 }
 
+void ClosestGrid::put_cell(size_t slot, Cell cell) {
+  using Slots = BrickSlots<Cell*>;
+  Cell*& at = slots_.made_brick(slot / Slots::kBrickSlots)[slot % Slots::kBrickSlots];
+  if (at) return;
+  made_.push_back(std::make_unique<Cell>(std::move(cell)));
+  at = made_.back().get();
+}
+
 bool ClosestGrid::closest(const Vec3& p, double max_m, Vec3& point, Vec3& face_normal) const {
   const Vec3 g = (p - origin_) / cell_;
   if (!(g.x() >= 0 && g.y() >= 0 && g.z() >= 0 && g.x() < static_cast<double>(nx_) &&

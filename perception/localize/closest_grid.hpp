@@ -38,12 +38,31 @@ class ClosestGrid {
   bool closest(const Vec3& p, double max_m, Vec3& point, Vec3& face_normal) const;
   double cell_m() const { return cell_; }
 
- private:
   struct Cell {
     double centre_distance_m = 0.0;  ///< from the cell's centre to the surface
     std::vector<unsigned> faces;     ///< every face that can be nearest to a point of the cell, ...
     std::vector<double> face_m;      ///< ... nearest the centre first, and how far from it [m]
   };
+  /// The cells filled so far, as fn(slot, cell) (slot < slots(): which cell of the grid it is), for keeping
+  /// them between runs (part_model_file.hpp). Not while another thread asks the grid.
+  template <class Fn>
+  void for_each_cell(Fn fn) const {
+    using Slots = BrickSlots<Cell*>;
+    for (size_t b = 0; b < slots_.brick_capacity(); ++b)
+      if (Cell* const* brick = slots_.brick(b))
+        for (size_t i = 0; i < Slots::kBrickSlots; ++i)
+          if (brick[i]) fn(b * Slots::kBrickSlots + i, *brick[i]);
+  }
+  size_t slots() const { return slots_.brick_capacity() * BrickSlots<Cell*>::kBrickSlots; }
+  size_t cells_made() const {
+    const std::lock_guard<std::mutex> lock(made_mutex_);
+    return made_.size();
+  }
+  /// Puts in a cell an earlier run filled (slot < slots(); its faces those cell_at finds there), unless the
+  /// cell is filled already. Not while another thread asks the grid.
+  void put_cell(size_t slot, Cell cell);
+
+ private:
   const Cell* cell_at(long ix, long iy, long iz) const;
 
   const MeshRays& rays_;

@@ -21,7 +21,7 @@ namespace {
 
 using Magic = char[8];
 constexpr Magic kMagic = {'W', 'T', 'P', 'A', 'R', 'T', '0', '1'};        // bump the digits with the layout
-constexpr Magic kLookupMagic = {'W', 'T', 'L', 'O', 'O', 'K', '0', '1'};  // ... of either file
+constexpr Magic kLookupMagic = {'W', 'T', 'L', 'O', 'O', 'K', '0', '2'};  // ... of either file
 constexpr uint64_t kFormat = 1;                                           // ... and this: it joins the key
 constexpr size_t kHeaderBytes = sizeof(Magic) + 2 * sizeof(uint64_t);
 constexpr uintmax_t kMaxFileBytes = uintmax_t{1} << 32;  // a larger file is not one of ours
@@ -419,55 +419,92 @@ std::string part_lookups_path(const std::string& part_path) {
 std::string save_part_lookups(const PartModel& model, uint64_t key, const std::string& path, int keep_files) {
   using Slots = BrickSlots<int>;
   Writer w;
+  // The nearest-sample grid: its capacity, then every brick made (index, slots).
   const size_t capacity = model.cache.brick_capacity();
+  std::vector<size_t> made;
+  for (size_t b = 0; b < capacity; ++b)
+    if (model.cache.brick(b)) made.push_back(b);
   w.put(static_cast<uint64_t>(capacity));
+  w.put(static_cast<uint64_t>(made.size()));
   std::vector<int> slots(Slots::kBrickSlots);
-  for (size_t b = 0; b < capacity; ++b) {
+  for (size_t b : made) {
     const int* brick = model.cache.brick(b);
-    if (!brick) continue;
     for (size_t i = 0; i < Slots::kBrickSlots; ++i) slots[i] = __atomic_load_n(brick + i, __ATOMIC_RELAXED);
     w.put(static_cast<uint64_t>(b));
     w.put_all(slots);
   }
+  // The closest-face grid: its size, then every cell filled (slot, centre distance, faces, their distances).
+  const ClosestGrid* surface = model.surface.get();
+  w.put(static_cast<uint64_t>(surface ? surface->slots() : 0));
+  w.put(static_cast<uint64_t>(surface ? surface->cells_made() : 0));
+  if (surface)
+    surface->for_each_cell([&](size_t slot, const ClosestGrid::Cell& c) {
+      w.put(static_cast<uint64_t>(slot));
+      w.put(c.centre_distance_m);
+      w.put_all(c.faces);
+      w.put_all(c.face_m);
+    });
   const std::string why = write_checked(path, kLookupMagic, key, w.bytes());
   if (why.empty()) prune_beside(path, ".lookup", keep_files);
   return why;
 }
 
-PartFileRead load_part_lookups(const std::string& path, uint64_t key, PartModel& model) {
+PartFileRead load_part_lookups(const std::string& path, uint64_t key, PartModel& model, size_t faces) {
   MappedFile file;
   const PartFileRead got = read_checked(path, kLookupMagic, key, file);
   if (got != PartFileRead::kRead) return got;
-  return read_part_lookups_body(body_at(file), body_bytes(file), model) ? PartFileRead::kRead
-                                                                        : PartFileRead::kDamaged;
+  return read_part_lookups_body(body_at(file), body_bytes(file), model, faces) ? PartFileRead::kRead
+                                                                               : PartFileRead::kDamaged;
 }
 
-bool read_part_lookups_body(const char* body, size_t body_size, PartModel& model) {
-  constexpr size_t kSlots = BrickSlots<int>::kBrickSlots;
-  constexpr size_t kBrickBytes = 2 * sizeof(uint64_t) + kSlots * sizeof(int);  // index, count, slots
-  // Checked whole before any of it goes in: bricks of this grid, each slot empty or a sample's answer.
-  uint64_t capacity = 0;
-  if (body_size < sizeof capacity || (body_size - sizeof capacity) % kBrickBytes != 0) return false;
-  std::memcpy(&capacity, body, sizeof capacity);
-  if (capacity != model.cache.brick_capacity()) return false;
-  const size_t bricks = (body_size - sizeof capacity) / kBrickBytes;
-  const char* first = body + sizeof capacity;
+bool read_part_lookups_body(const char* body, size_t body_size, PartModel& model, size_t faces) {
+  using Slots = BrickSlots<int>;
+  // Checked whole before any of it goes in: bricks of this grid, each slot empty or a sample's answer; cells
+  // of the closest-face grid, each with faces of the mesh, as many distances as faces, nearest first.
+  Reader r(body, body_size);
+  uint64_t capacity = 0, bricks = 0;
+  if (!r.get(capacity) || capacity != model.cache.brick_capacity() || !r.get(bricks) || bricks > capacity)
+    return false;
+  const char* first = nullptr;
+  constexpr size_t kBrickBytes =
+      2 * sizeof(uint64_t) + Slots::kBrickSlots * sizeof(int);  // index, count, slots
+  if (!r.skip(bricks, kBrickBytes, first)) return false;
   const int most = static_cast<int>(model.pts.size()) + 1;  // a slot holds 0, or the answer (-1..n-1) + 2
   for (size_t k = 0; k < bricks; ++k) {
     uint64_t head[2];
     std::memcpy(head, first + k * kBrickBytes, sizeof head);
-    if (head[0] >= capacity || head[1] != kSlots) return false;
-    int slots[kSlots];
+    if (head[0] >= capacity || head[1] != Slots::kBrickSlots) return false;
+    int slots[Slots::kBrickSlots];
     std::memcpy(slots, first + k * kBrickBytes + sizeof head, sizeof slots);
     for (int v : slots)
       if (v < 0 || v > most) return false;
   }
+  uint64_t cell_slots = 0, cells = 0;
+  ClosestGrid* surface = model.surface.get();
+  if (!r.get(cell_slots) || cell_slots != (surface ? surface->slots() : 0) || !r.get(cells) ||
+      cells > cell_slots)
+    return false;
+  std::vector<std::pair<uint64_t, ClosestGrid::Cell>> read;
+  read.reserve(std::min<uint64_t>(cells, body_size / (3 * sizeof(uint64_t) + sizeof(double))));
+  for (uint64_t k = 0; k < cells; ++k) {
+    uint64_t slot = 0;
+    ClosestGrid::Cell c;
+    if (!r.get(slot) || slot >= cell_slots || !r.get(c.centre_distance_m) || !r.get_all(c.faces) ||
+        !r.get_all(c.face_m) || c.faces.size() != c.face_m.size())
+      return false;
+    for (size_t i = 0; i < c.faces.size(); ++i)
+      if (c.faces[i] >= faces || !(c.face_m[i] >= 0.0) || (i > 0 && c.face_m[i] < c.face_m[i - 1]))
+        return false;
+    read.emplace_back(slot, std::move(c));
+  }
+  if (!r.done()) return false;
   for (size_t k = 0; k < bricks; ++k) {
     uint64_t b = 0;
     std::memcpy(&b, first + k * kBrickBytes, sizeof b);
     int* brick = model.cache.made_brick(b);
-    std::memcpy(brick, first + k * kBrickBytes + 2 * sizeof(uint64_t), kSlots * sizeof(int));
+    std::memcpy(brick, first + k * kBrickBytes + 2 * sizeof(uint64_t), Slots::kBrickSlots * sizeof(int));
   }
+  for (auto& [slot, c] : read) surface->put_cell(slot, std::move(c));
   return true;
 }
 

@@ -38,26 +38,27 @@ enum class PartFileRead {
 /// Reads what save_part_model wrote under `key`. Unless kRead, `model` and `rest` are left as they were.
 PartFileRead load_part_model(const std::string& path, uint64_t key, PartModel& model, Mesh& rest);
 
-// The answers of the model's nearest-sample grid (PartModel::nearest) asked so far: they do not depend on the
-// scan, and a part's scans ask about much the same places, so that a run can start with the answers of the
-// runs before. Beside the model's file, under the same key.
+// The answers of the model's lookup grids asked so far (the nearest samples, PartModel::nearest, and the
+// faces near each cell, ClosestGrid): they do not depend on the scan, and a part's scans ask about much the
+// same places, so that a run can start with the answers of the runs before. Beside the model's file, under
+// the same key.
 
 /// The parsers of the files' bodies (what follows the header, before the checksum), for the fuzz harness:
 /// false when the body is cut short, too long, or its fields do not fit together (the model's, the grid's
 /// bricks, each slot empty or a sample's answer); then the model (and `rest`) are left as they were.
 bool read_part_model_body(const char* data, size_t size, PartModel& model, Mesh& rest);
-bool read_part_lookups_body(const char* data, size_t size, PartModel& model);
+bool read_part_lookups_body(const char* data, size_t size, PartModel& model, size_t faces);
 
 /// The lookups' file beside the model's file `part_path`.
 std::string part_lookups_path(const std::string& part_path);
 
-/// Writes the grid's bricks made so far, and removes the oldest such files of the folder beyond
+/// Writes the grids' bricks and cells made so far, and removes the oldest such files of the folder beyond
 /// `keep_files`. Returns "" or why not.
 std::string save_part_lookups(const PartModel& model, uint64_t key, const std::string& path,
                               int keep_files = 64);
 
-/// Puts the answers of the file into the model's grid (made by make_lookups). Unless kRead, the grid is left
-/// as it was.
-PartFileRead load_part_lookups(const std::string& path, uint64_t key, PartModel& model);
+/// Puts the answers of the file into the model's grids (made by make_lookups; `faces`: how many faces its
+/// resting mesh has). Unless kRead, the grids are left as they were.
+PartFileRead load_part_lookups(const std::string& path, uint64_t key, PartModel& model, size_t faces);
 
 }  // namespace weldtwin

@@ -213,18 +213,25 @@ TEST(PartModelFile, TheLookupsReadBackAnswerAsTheyWereAskedAndNothingElseGetsIn)
   for (int i = 0; i < 4000; ++i)
     qs.push_back(asked.lo + (asked.hi - asked.lo).cwiseProduct(Vec3(u(rng), u(rng), u(rng))));
   std::vector<int> answers;
-  for (const Vec3& q : qs) answers.push_back(asked.nearest(q));
+  for (const Vec3& q : qs) {
+    answers.push_back(asked.nearest(q));
+    Vec3 point, normal;
+    asked.surface->closest(q, 0.01, point, normal);
+  }
+  ASSERT_GT(asked.surface->cells_made(), 100u);
   const fs::path dir = fresh_dir("lookups");
   const std::string path = part_lookups_path(part_model_path(dir.string(), 42));
   EXPECT_EQ(fs::path(path).extension(), ".lookup");
   ASSERT_EQ(save_part_lookups(asked, 42, path), "");
 
-  // Read into a fresh model: the bricks asked about are there, with the answers the asking gave, and every
-  // answer (those and any other) is the one a model that was never read gives.
+  // Read into a fresh model: the bricks and cells asked about are there, the bricks with the answers the
+  // asking gave, and every answer (those and any other, nearest samples and closest faces) is the one a
+  // model that was never read gives.
   PartModel fresh;
   build_part_model_at_rest(rest, setting, 0, fresh);
-  ASSERT_EQ(load_part_lookups(path, 42, fresh), PartFileRead::kRead);
+  ASSERT_EQ(load_part_lookups(path, 42, fresh, rest.faces.size()), PartFileRead::kRead);
   EXPECT_EQ(fresh.cache.bricks_made(), asked.cache.bricks_made());
+  EXPECT_EQ(fresh.surface->cells_made(), asked.surface->cells_made());
   PartModel never;
   build_part_model_at_rest(rest, setting, 0, never);
   for (size_t i = 0; i < qs.size(); ++i) {
@@ -237,14 +244,25 @@ TEST(PartModelFile, TheLookupsReadBackAnswerAsTheyWereAskedAndNothingElseGetsIn)
     ASSERT_EQ(never.nearest(q), answers[i]);
     const Vec3 other = q + Vec3(0.0037, -0.0021, 0.0013);
     ASSERT_EQ(fresh.nearest(other), never.nearest(other));
+    for (const Vec3& at : {q, other}) {
+      Vec3 pa, na, pb, nb;
+      const bool a = fresh.surface->closest(at, 0.01, pa, na), b = never.surface->closest(at, 0.01, pb, nb);
+      ASSERT_EQ(a, b);
+      if (a) {
+        ASSERT_EQ(pa, pb);
+        ASSERT_EQ(na, nb);
+      }
+    }
   }
+  EXPECT_EQ(fresh.surface->cells_made(), never.surface->cells_made());  // none asked anew: all were read
 
   // Another key, a damaged file, another grid's file, an answer no sample has: refused, the grid untouched.
   auto refused = [&](const std::string& p, uint64_t key) {
     PartModel m;
     build_part_model_at_rest(rest, setting, 0, m);
-    const PartFileRead got = load_part_lookups(p, key, m);
+    const PartFileRead got = load_part_lookups(p, key, m, rest.faces.size());
     EXPECT_EQ(m.cache.bricks_made(), 0u);
+    EXPECT_EQ(m.surface->cells_made(), 0u);
     return got;
   };
   EXPECT_EQ(refused(path, 43), PartFileRead::kOtherKey);
@@ -264,6 +282,11 @@ TEST(PartModelFile, TheLookupsReadBackAnswerAsTheyWereAskedAndNothingElseGetsIn)
   *wrong.cache.slot(3, 3, 3) = static_cast<int>(wrong.pts.size()) + 2;  // the answer n: no such sample
   ASSERT_EQ(save_part_lookups(wrong, 42, (dir / "wrong.lookup").string()), "");
   EXPECT_EQ(refused((dir / "wrong.lookup").string(), 42), PartFileRead::kDamaged);
+  PartModel no_face;  // a cell naming a face the mesh does not have
+  build_part_model_at_rest(rest, setting, 0, no_face);
+  no_face.surface->put_cell(5, {0.01, {static_cast<unsigned>(rest.faces.size())}, {0.01}});
+  ASSERT_EQ(save_part_lookups(no_face, 42, (dir / "no_face.lookup").string()), "");
+  EXPECT_EQ(refused((dir / "no_face.lookup").string(), 42), PartFileRead::kDamaged);
 }
 
 TEST(PartModelFile, OnlyTheNewestFilesAreKept) {
