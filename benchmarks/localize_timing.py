@@ -13,11 +13,14 @@ and the ratio ours/baseline.
 --samples DIR: folders with scan.pcd and part.stl; --real DIR: real scans (*.pcd) with the part's mesh (*.stl)
 beside them.
 
-Ours is timed twice: "cold", the part prepared anew (--no-part-cache), and "warm", the prepared part and its
-lookups kept by an earlier run on the same scan (--part-cache in a folder of this run's, written by one
-untimed run first). The baseline is run as it is (a build from before the kept parts: cold).
+Ours is timed three ways: "cold", the part prepared anew (--no-part-cache); "known", the part kept by runs on
+the other scans of the same mesh (samples only: a new placement of a part the cell has localized before; each
+timed run starts from a copy of that folder); "warm", the part kept by an earlier run on the same scan. The
+baseline is run as it is (a build from before the kept parts: cold).
 """
 import argparse
+import hashlib
+import shutil
 import os
 import statistics
 import struct
@@ -71,12 +74,29 @@ def main():
         for f in sorted(os.listdir(args.real)):
             if f.endswith(".pcd") and meshes:
                 cases.append(("real " + f[:-4], os.path.join(args.real, f), os.path.join(args.real, meshes[0])))
+    digest = {m: hashlib.md5(open(m, "rb").read()).hexdigest() for _, _, m in cases}
+
+    def known_folder(name, mesh, fmt):
+        """A folder of kept parts written by the other samples of the same mesh (None: there are none)."""
+        others = [(n, sc) for n, sc, m in cases if digest[m] == digest[mesh] and n != name and not n.startswith("real")]
+        if not others:
+            return None
+        folder = os.path.join(tmp, f"known_{name}_{fmt}")
+        for _, other_scan in others:
+            wall_time([args.weldtwin, "localize", "-q", "--model", mesh, "--scan", other_scan, "--out",
+                       os.path.join(tmp, "pose.json"), "--part-cache", folder])
+        return folder
+
     for name, ascii_scan, mesh in cases:
         binary = os.path.join(tmp, name.replace(" ", "_") + ".pcd")
         n = to_binary_pcd(ascii_scan, binary)
         for fmt, scan in (("ascii", ascii_scan), ("binary", binary)):
             kept = os.path.join(tmp, "parts")
-            for method in ("cold", "warm", "paper"):
+            scratch = os.path.join(tmp, "known_now")
+            known = known_folder(name, mesh, fmt)
+            for method in ("cold", "known", "warm", "paper"):
+                if method == "known" and known is None:
+                    continue
                 def command(binary, mode=method):
                     cmd = [binary, "localize", "-q", "--model", mesh, "--scan", scan,
                            "--out", os.path.join(tmp, "pose.json"),
@@ -85,11 +105,16 @@ def main():
                         cmd.append("--no-part-cache")
                     elif mode == "warm":
                         cmd += ["--part-cache", kept]
+                    elif mode == "known":
+                        cmd += ["--part-cache", scratch]
                     return cmd
                 if method == "warm":
                     wall_time(command(args.weldtwin))  # keeps the part and its lookups
                 times, base_times = [], []
                 for _ in range(args.repeats):
+                    if method == "known":
+                        shutil.rmtree(scratch, ignore_errors=True)
+                        shutil.copytree(known, scratch)
                     t, rc = wall_time(command(args.weldtwin))
                     times.append(t)
                     if args.baseline and method != "paper":
@@ -105,8 +130,10 @@ def main():
         print(f"{name:28} {n:7d} {fmt:>7} {method:>6} {t:9.3f} {rc:4d}{base}")
     for fmt in ("ascii", "binary"):
         paper = [r[4] for r in rows if r[2] == fmt and r[3] == "paper" and not r[0].startswith("real")]
-        for mode in ("cold", "warm"):
+        for mode in ("cold", "known", "warm"):
             ours = [r[4] for r in rows if r[2] == fmt and r[3] == mode and not r[0].startswith("real")]
+            if not ours:
+                continue
             line = (f"{fmt} {mode}: ours median {statistics.median(ours):.3f} s, paper median "
                     f"{statistics.median(paper):.3f} s, paper/ours {statistics.median(paper) / statistics.median(ours):.2f}x")
             if args.baseline:

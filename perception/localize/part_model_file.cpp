@@ -101,6 +101,8 @@ class Writer {
     const auto* p = reinterpret_cast<const char*>(values.data());
     bytes_.insert(bytes_.end(), p, p + values.size() * sizeof(T));
   }
+  /// Room for this many more bytes (a body of megabytes grown by doubling was copied over and over).
+  void reserve_more(size_t bytes) { bytes_.reserve(bytes_.size() + bytes); }
   const std::vector<char>& bytes() const { return bytes_; }
 
  private:
@@ -424,6 +426,14 @@ std::string save_part_lookups(const PartModel& model, uint64_t key, const std::s
   std::vector<size_t> made;
   for (size_t b = 0; b < capacity; ++b)
     if (model.cache.brick(b)) made.push_back(b);
+  const ClosestGrid* surface = model.surface.get();
+  size_t cell_bytes = 0;
+  if (surface)
+    surface->for_each_cell([&](size_t, const ClosestGrid::Cell& c) {
+      cell_bytes += 4 * sizeof(uint64_t) + c.faces.size() * (sizeof(unsigned) + sizeof(double));
+    });
+  w.reserve_more(4 * sizeof(uint64_t) +
+                 made.size() * (2 * sizeof(uint64_t) + Slots::kBrickSlots * sizeof(int)) + cell_bytes);
   w.put(static_cast<uint64_t>(capacity));
   w.put(static_cast<uint64_t>(made.size()));
   std::vector<int> slots(Slots::kBrickSlots);
@@ -434,7 +444,6 @@ std::string save_part_lookups(const PartModel& model, uint64_t key, const std::s
     w.put_all(slots);
   }
   // The closest-face grid: its size, then every cell filled (slot, centre distance, faces, their distances).
-  const ClosestGrid* surface = model.surface.get();
   w.put(static_cast<uint64_t>(surface ? surface->slots() : 0));
   w.put(static_cast<uint64_t>(surface ? surface->cells_made() : 0));
   if (surface)
