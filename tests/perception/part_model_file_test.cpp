@@ -32,6 +32,14 @@ Mesh tube_mesh() {
   return load_mesh(test::repo("scenes/parts/tube_on_plate.stl"));
 }
 
+// The tube's mesh at rest and its model built as the localizer builds it.
+struct Built {
+  Mesh mesh = tube_mesh();
+  Mesh rest = resting_mesh(mesh, 0.0);
+  PartModel model;
+  explicit Built(const PartModelSetting& setting = {}) { build_part_model_at_rest(rest, setting, 0, model); }
+};
+
 std::vector<char> bytes_of(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
   return std::vector<char>(std::istreambuf_iterator<char>(in), {});
@@ -50,11 +58,10 @@ bool same(const std::vector<V>& a, const std::vector<V>& b) {
 }
 
 TEST(PartModelFile, AModelReadBackIsTheModelBuilt) {
-  const Mesh mesh = tube_mesh();
   const PartModelSetting setting;
-  const Mesh rest = resting_mesh(mesh, 0.0);
-  PartModel built;
-  build_part_model_at_rest(rest, setting, 0, built);
+  Built made(setting);
+  const Mesh &mesh = made.mesh, &rest = made.rest;
+  PartModel& built = made.model;
   const uint64_t key = part_model_key(mesh, 0.0, setting);
   ASSERT_NE(key, 0u) << "the test program has no build id";
   const std::string path = part_model_path(fresh_dir("roundtrip").string(), key);
@@ -143,11 +150,10 @@ TEST(PartModelFile, TheKeyTellsApartEverythingTheModelIsMadeOf) {
 }
 
 TEST(PartModelFile, AnotherKeyOrADamagedFileIsRefusedAndLeavesTheModelAlone) {
-  const Mesh mesh = tube_mesh();
   const PartModelSetting setting;
-  const Mesh rest = resting_mesh(mesh, 0.0);
-  PartModel built;
-  build_part_model_at_rest(rest, setting, 0, built);
+  const Built b(setting);
+  const Mesh &mesh = b.mesh, &rest = b.rest;
+  const PartModel& built = b.model;
   const uint64_t key = part_model_key(mesh, 0.0, setting);
   const fs::path dir = fresh_dir("damaged");
   const std::string path = part_model_path(dir.string(), key);
@@ -290,10 +296,9 @@ TEST(PartModelFile, TheLookupsReadBackAnswerAsTheyWereAskedAndNothingElseGetsIn)
 }
 
 TEST(PartModelFile, OnlyTheNewestFilesAreKept) {
-  const Mesh mesh = tube_mesh();
-  const Mesh rest = resting_mesh(mesh, 0.0);
-  PartModel built;
-  build_part_model_at_rest(rest, PartModelSetting(), 0, built);
+  const Built b;
+  const Mesh& rest = b.rest;
+  const PartModel& built = b.model;
   const fs::path dir = fresh_dir("prune");
   const auto now = fs::file_time_type::clock::now();
   for (uint64_t k = 1; k <= 5; ++k) {
