@@ -45,10 +45,11 @@ TEST(HeapPages, TheHeapIsAskedForInHugePages) {
   heap_in_huge_pages();
   ASSERT_GE(heap_field("Size"), 64 * 1024) << "the heap was not grown";
   const long huge_before = heap_field("AnonHugePages");
-  // 16 MB allocated from it and touched: most of it in 2 MB pages.
+  // 16 MB allocated from it and touched: in 2 MB pages (at least one: a system short of free 2 MB blocks may
+  // give 4 kB pages for some of it; without the advice this heap gets none).
   std::vector<char> block(size_t{16} << 20);
   std::memset(block.data(), 1, block.size());
-  EXPECT_GE(heap_field("AnonHugePages") - huge_before, 12 * 1024);
+  EXPECT_GE(heap_field("AnonHugePages") - huge_before, 2 * 1024);
 }
 
 }  // namespace
