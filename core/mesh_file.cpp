@@ -21,6 +21,7 @@ namespace weldtwin {
 namespace {
 
 constexpr double kMaxPartSize = 5.0;       // no part on a welding table is larger [m]
+constexpr double kMinPartSize = 0.002;     // nor smaller (a mesh in metres read as millimetres is 1/1000) [m]
 constexpr double kDegenerateArea = 1e-14;  // a face with a smaller cross product has no area [m^2]
 
 // What every mesh must be, whichever reader read it: finite, of a size a part can have, its faces naming its
@@ -48,6 +49,12 @@ void check_mesh(const std::string& path, Mesh& mesh, double scale) {
     char buf[200];
     std::snprintf(buf, sizeof buf, "the mesh is %.3g m across%s", size,
                   scale == 1.0 && size < 1e4 ? ": millimetres? use --units mm" : ": not a part on a table");
+    throw input_error(path, buf);
+  }
+  if (size < kMinPartSize) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "the mesh is %.3g mm across: too small for a part%s", 1e3 * size,
+                  scale != 1.0 ? " (read as millimetres: metres? leave out --units mm)" : "");
     throw input_error(path, buf);
   }
 }

@@ -120,6 +120,7 @@ void build_part_model_at_rest(const Mesh& rest, const PartModelSetting& s, int t
   model.pts = all.points;
   model.nrm = all.normals;
   const size_t n = model.pts.size();
+  if (n == 0) return;  // a mesh smaller than the sample spacing: nothing to find (the localizer says so)
   model.visible.resize(n);
   model.view_score.resize(n);
   model.half_thickness.resize(n);

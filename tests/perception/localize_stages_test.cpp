@@ -130,6 +130,21 @@ TEST(LocalizeStages, TheModelKnowsItsThinWallsAndTheirDirections) {
   }
 }
 
+// A mesh smaller than the model's sample spacing has no samples: the model says so by having none (it had
+// sized its wall bins from an unset height of -1e9 and thrown), and localize refuses it in words.
+TEST(LocalizeStages, AMeshSmallerThanTheSampleSpacingMakesAnEmptyModelNotAThrow) {
+  Mesh speck = load_mesh(test::repo("scenes/parts/tube_on_plate.stl"));
+  for (Vec3& v : speck.vertices) v *= 1e-3;  // 0.16 mm across
+  PartModel model;
+  ASSERT_NO_THROW(build_part_model(speck, 0.0, PartModelSetting(), 0, model));
+  EXPECT_TRUE(model.pts.empty());
+  const std::vector<Vec3> cloud = one_sided_scan(load_mesh(test::repo("scenes/parts/tube_on_plate.stl")),
+                                                 planar_pose(0.45, 0.05, 0.0, 0.3), -0.3, 0.001, 5);
+  const PoseEstimate pose = localize(cloud, speck, LocalizeSetting());
+  EXPECT_FALSE(pose.found);
+  EXPECT_NE(pose.reason.find("too small"), std::string::npos) << pose.reason;
+}
+
 TEST(LocalizeStages, HoughSearchHasTheTruePoseAmongItsPeaks) {
   const Scene sc = tube_scene(0.0008, 1);
   Prepared p = prepare(sc);

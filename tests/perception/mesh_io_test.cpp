@@ -1,7 +1,8 @@
 // Part meshes: PLY read by our reader exactly as the same mesh's STL (ascii, binary of both endians, polygons
 // as fans), and meshes no part can be refused with one clear line naming the file: faces naming missing
-// vertices, a size no part on a table has (millimetres read as metres: say so), no face with an area, and
-// formats the docs do not promise (mutated files had crashed Assimp or Embree, or eaten all memory).
+// vertices, a size no part on a table has (millimetres read as metres, or metres as millimetres: say so), no
+// face with an area, and formats the docs do not promise (mutated files had crashed Assimp or Embree, or
+// eaten all memory).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -147,6 +148,11 @@ TEST(MeshIo, MeshesNoPartCanBeAreRefusedNamingTheFile) {
   const std::string mm = write("in_mm.stl", binary_stl(stl, 1000.0));
   expect_refused(mm, "millimetres? use --units mm");
   EXPECT_EQ(load_mesh(mm, 1e-3).faces.size(), stl.faces.size());
+  // The part in metres read as millimetres: 0.16 mm across (it had thrown an internal error making the
+  // model: no surface sample, its height -1e9).
+  const std::string metres = write("in_m.stl", binary_stl(stl, 1.0));
+  expect_refused(metres, "mm across: too small for a part (read as millimetres: metres?", 1e-3);
+  expect_refused(write("speck.stl", binary_stl(stl, 1e-3)), "mm across: too small for a part");
   // One vertex finite but absurd (it had stopped Embree on an assertion).
   Mesh huge = stl;
   huge.vertices[huge.faces[0][0]] = Vec3(8.6e36, 0, 0);
