@@ -97,9 +97,14 @@ TablePlane find_table_plane(const std::vector<Vec3>& scan, const TablePlaneSetti
         (!table || -f.plane[3] > -table->plane[3]))
       table = &f;
   if (!table) return out;
-  // Least squares on the points within the band, the band narrowed to the noise as it is learnt. The feet
-  // of everything standing on the table (walls, clamps, the part) reach into any band around it from above
-  // only; the table points next to them (raised cells, and their neighbours) are left out.
+  // Least squares on the points within the band, the band narrowed to the noise as it is learnt, until the
+  // plane and the noise settle. The feet of everything standing on the table (walls, clamps, the part) reach
+  // into any band around it from above only; the table points next to them (raised cells: a point more than
+  // the band, and at least the RANSAC's threshold, above the plane; and their neighbours) are left out. The
+  // threshold keeps the table itself from raising its own cells: a real table is not flat to its noise (a
+  // steel table warps by a millimetre or two), and a mask that followed the narrowing band masked more of it
+  // every round, tilting the plane towards what was left (the paper's real scan: 40 k of its points in the
+  // first round, 16 k by the tenth, never settling).
   Eigen::Vector4d p = table->plane;
   double band = s.threshold_m;
   double noise = s.min_noise_m;
@@ -116,7 +121,7 @@ TablePlane find_table_plane(const std::vector<Vec3>& scan, const TablePlaneSetti
     std::fill(raised.begin(), raised.end(), 0);
     for (const Vec3* q : near) {
       const double r = p.head<3>().dot(*q) + p[3];
-      if (r > band && r < s.max_raised_height_m)
+      if (r > std::max(band, s.threshold_m) && r < s.max_raised_height_m)
         for (int dx = -1; dx <= 1; ++dx)
           for (int dy = -1; dy <= 1; ++dy) raised[cell(q->x() + rc * dx, q->y() + rc * dy)] = 1;
     }
@@ -148,9 +153,15 @@ TablePlane find_table_plane(const std::vector<Vec3>& scan, const TablePlaneSetti
     Eigen::SelfAdjointEigenSolver<Mat3> eig(C);
     Vec3 n = eig.eigenvectors().col(0);
     if (n.z() < 0) n = -n;
+    const Eigen::Vector4d before = p;
+    const double noise_before = noise;
     p << n, -n.dot(c);
     noise = std::max(s.min_noise_m, kMadToSigma * median(res));
     band = std::max(s.band_sigmas * noise, s.min_band_m);
+    // Settled: the plane moved less than settled_m anywhere within the reach, and the noise as little.
+    const double moved =
+        std::abs(p[3] - before[3]) + (p.head<3>() - before.head<3>()).norm() * s.reach_radius_m;
+    if (moved < s.settled_m && std::abs(noise - noise_before) < s.settled_m) break;
   }
   out.found = true;
   out.plane = p;

@@ -11,16 +11,17 @@
 namespace weldtwin {
 
 struct TablePlaneSetting {
-  double reach_radius_m = 1.2;       ///< the table is sought within this distance of the base axis [m]
-  double threshold_m = 0.006;        ///< RANSAC inlier distance for the table plane [m]
-  double max_tilt_deg = 15.0;        ///< the table plane's normal is within this angle of +z [deg]
-  int sample_points = 40000;         ///< points the RANSAC looks at (evenly thinned)
-  int ransac_iterations = 300;       ///< RANSAC iterations per plane
-  int max_planes = 4;                ///< planes peeled off one after another
-  double min_area_m2 = 0.15;         ///< a plane seen over less area is a box top, not the table [m^2]
-  double min_noise_m = 0.0005;       ///< floor of the estimated range noise [m]
-  int refit_rounds = 4;              ///< least-squares rounds, the band narrowed to the noise learnt
-  double band_sigmas = 3.5;          ///< the refit's band half-width, in noise sigmas
+  double reach_radius_m = 1.2;  ///< the table is sought within this distance of the base axis [m]
+  double threshold_m = 0.006;   ///< RANSAC inlier distance for the table plane [m]
+  double max_tilt_deg = 15.0;   ///< the table plane's normal is within this angle of +z [deg]
+  int sample_points = 40000;    ///< points the RANSAC looks at (every n-th: n = points / this, at least 1)
+  int ransac_iterations = 300;  ///< RANSAC iterations per plane
+  int max_planes = 4;           ///< planes peeled off one after another
+  double min_area_m2 = 0.15;    ///< a plane seen over less area is a box top, not the table [m^2]
+  double min_noise_m = 0.0005;  ///< floor of the estimated range noise [m]
+  int refit_rounds = 12;        ///< least-squares rounds at most, the band narrowed to the noise learnt ...
+  double settled_m = 1e-6;   ///< ... until the plane (within the reach) and the noise move less than this [m]
+  double band_sigmas = 3.5;  ///< the refit's band half-width, in noise sigmas
   double min_band_m = 0.002;         ///< the band's least half-width [m]
   double raised_cell_m = 0.01;       ///< cells where something stands on the table are left out [m]
   double max_raised_height_m = 0.5;  ///< points this far above the plane are not the feet of anything [m]

@@ -64,6 +64,54 @@ TEST(Localizer, TablePlaneIsRecoveredUnderHalfOutliersAndAFloor) {
   EXPECT_NEAR(sigma, 0.001, 3e-4);
 }
 
+TEST(Localizer, AWarpedTableGivesOnePlaneAndItsNoiseWhateverTheRansacProposed) {
+  // A steel table is not flat to its noise: this one bows 2.5 mm along x and twists 1 mm (1 mm noise, heavier
+  // tails: one point in fifty off by 4-10 mm, as a real table's scan), with boxes standing on it. The fit
+  // settles on one plane and one noise: the cloud and its two interleaved halves (whose RANSACs propose other
+  // planes) agree to a small fraction of the noise. (The fit had stopped after four rounds of a mask that
+  // followed its narrowing band, masking more of the table every round: on the paper's real scan the two
+  // halves' noise came out 1.0 and 2.0 mm from two RANSAC starts.)
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::normal_distribution<double> noise(0.0, 0.001);
+  auto warp = [](double x, double y) {
+    const double sx = (x - 0.3) / 0.4, sy = y / 0.6;
+    return 0.0025 * sx * sx + 0.001 * sx * sy;
+  };
+  std::vector<Vec3> pts;
+  for (int i = 0; i < 60000; ++i) {
+    const double x = -0.1 + 0.8 * u(rng), y = -0.6 + 1.2 * u(rng);
+    const double tail = i % 50 == 0 ? (u(rng) < 0.5 ? -1 : 1) * (0.004 + 0.006 * u(rng)) : 0.0;
+    pts.emplace_back(x, y, warp(x, y) + noise(rng) + tail);
+  }
+  for (int b = 0; b < 6; ++b) {  // boxes 60 x 60 x 50 mm: their walls' feet reach into any band
+    const double cx = 0.05 * b + 0.1, cy = -0.4 + 0.15 * b;
+    for (int i = 0; i < 1500; ++i) {
+      const double t = u(rng), h = 0.05 * u(rng);
+      const int side = i % 4;
+      const double x = cx + (side == 0 ? -0.03 : side == 1 ? 0.03 : -0.03 + 0.06 * t);
+      const double y = cy + (side == 2 ? -0.03 : side == 3 ? 0.03 : -0.03 + 0.06 * t);
+      pts.emplace_back(x, y, warp(cx, cy) + h);
+    }
+  }
+  std::vector<Vec3> half[2];
+  for (size_t i = 0; i < pts.size(); ++i) half[i % 2].push_back(pts[i]);
+  const TablePlane whole = find_table_plane(pts), a = find_table_plane(half[0]),
+                   b = find_table_plane(half[1]);
+  ASSERT_TRUE(whole.found && a.found && b.found);
+  const Vec3 part(0.45, 0.1, 0.0);  // where a part would stand: the planes' heights there
+  auto height = [&](const TablePlane& t) {
+    return -(t.plane[3] + t.plane.head<2>().dot(part.head<2>())) / t.plane[2];
+  };
+  EXPECT_NEAR(height(a), height(whole), 1e-4);
+  EXPECT_NEAR(height(b), height(whole), 1e-4);
+  EXPECT_NEAR(a.noise_m, whole.noise_m, 0.03 * whole.noise_m);
+  EXPECT_NEAR(b.noise_m, whole.noise_m, 0.03 * whole.noise_m);
+  // The noise it reports is the table's own spread about a plane (noise and warp), not a fraction of it.
+  EXPECT_GT(whole.noise_m, 0.0009);
+  EXPECT_LT(whole.noise_m, 0.0016);
+}
+
 TEST(Localizer, PlanarRigidFitRecoversAKnownMotionExactly) {
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
@@ -250,11 +298,13 @@ TEST(Localizer, BadInputIsRefusedCleanly) {
   const PoseEstimate pose = localize(sky, load_mesh(test::repo("scenes/parts/tube_tee.stl")));
   EXPECT_FALSE(pose.found);
   EXPECT_NE(pose.reason.find("table"), std::string::npos) << pose.reason;
-  // A mesh scaled as --units mm scales it: every vertex by the factor; scaled to 300 m it is no part.
+  // A scale (as --units mm gives) scales every vertex by the factor; scaled to 300 m, or to 0.3 mm (a mesh in
+  // metres read as millimetres), it is no part.
   const Mesh m = load_mesh(test::repo("scenes/parts/tube_tee.stl"));
-  const Mesh mm = load_mesh(test::repo("scenes/parts/tube_tee.stl"), 1e-3);
-  EXPECT_NEAR(mm.vertices[5].x(), 1e-3 * m.vertices[5].x(), 1e-12);
+  const Mesh half = load_mesh(test::repo("scenes/parts/tube_tee.stl"), 0.5);
+  EXPECT_NEAR(half.vertices[5].x(), 0.5 * m.vertices[5].x(), 1e-12);
   EXPECT_THROW(load_mesh(test::repo("scenes/parts/tube_tee.stl"), 1e3), InputError);
+  EXPECT_THROW(load_mesh(test::repo("scenes/parts/tube_tee.stl"), 1e-3), InputError);
 }
 
 TEST(Localizer, RaysCastFromTheirViewpointsFindTheSquareTubeWhereItsPointsAloneDoNot) {
