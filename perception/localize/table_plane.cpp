@@ -27,6 +27,15 @@ pcl::PointXYZ pt(const Vec3& p) {
   return pcl::PointXYZ(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()));
 }
 
+// A number in [0, 1) for index i: a fixed pseudo-random draw (SplitMix64's finaliser).
+double unit_hash(uint64_t i) {
+  uint64_t z = i + 0x9e3779b97f4a7c15ULL;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  z ^= z >> 31;
+  return static_cast<double>(z >> 11) * 0x1.0p-53;
+}
+
 // A plane found by RANSAC, sized by the area its inliers spread over.
 struct Found {
   Eigen::Vector4d plane;
@@ -50,10 +59,13 @@ TablePlane find_table_plane(const std::vector<Vec3>& scan, const TablePlaneSetti
   for (const Vec3& p : scan)
     if (p.head<2>().norm() <= s.reach_radius_m) near.push_back(&p);
   if (near.size() < kMinPoints) return out;
+  // The RANSAC looks at about sample_points of them, drawn at random (a fixed draw): every n-th point would
+  // see the same few bearings of every scan line when n divides a line's points.
   Cloud::Ptr rest(new Cloud);
-  const size_t stride = std::max<size_t>(1, near.size() / static_cast<size_t>(s.sample_points));
-  rest->reserve(near.size() / stride + 1);
-  for (size_t i = 0; i < near.size(); i += stride) rest->push_back(pt(*near[i]));
+  const double keep = std::min(1.0, s.sample_points / static_cast<double>(near.size()));
+  rest->reserve(static_cast<size_t>(keep * static_cast<double>(near.size())) + 1);
+  for (size_t i = 0; i < near.size(); ++i)
+    if (keep >= 1.0 || unit_hash(i) < keep) rest->push_back(pt(*near[i]));
   std::vector<Found> planes;
   pcl::SACSegmentation<pcl::PointXYZ> seg;
   seg.setModelType(pcl::SACMODEL_PERPENDICULAR_PLANE);

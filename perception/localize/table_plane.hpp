@@ -14,7 +14,7 @@ struct TablePlaneSetting {
   double reach_radius_m = 1.2;  ///< the table is sought within this distance of the base axis [m]
   double threshold_m = 0.006;   ///< RANSAC inlier distance for the table plane [m]
   double max_tilt_deg = 15.0;   ///< the table plane's normal is within this angle of +z [deg]
-  int sample_points = 40000;    ///< points the RANSAC looks at (every n-th: n = points / this, at least 1)
+  int sample_points = 10000;    ///< points the RANSAC looks at, about (drawn at random; all if fewer)
   int ransac_iterations = 300;  ///< RANSAC iterations per plane
   int max_planes = 4;           ///< planes peeled off one after another
   double min_area_m2 = 0.15;    ///< a plane seen over less area is a box top, not the table [m^2]

@@ -145,6 +145,21 @@ TEST(LocalizeStages, AMeshSmallerThanTheSampleSpacingMakesAnEmptyModelNotAThrow)
   EXPECT_NE(pose.reason.find("too small"), std::string::npos) << pose.reason;
 }
 
+// The scene's cloud alternates a ray at the part's box and one at the table, as a scanner's lines repeat
+// their bearings: the RANSAC's share of the points must not follow that order (every 6th point of it is a
+// ray at the part, where a plate top tilted into the table holds more points than the table).
+TEST(LocalizeStages, TheTablesRansacDrawsItsPointsWithoutFollowingTheScansOrder) {
+  const Scene sc = tube_scene(0.0008, 1);
+  for (int sample : {5000, 7500, 10000, 20000}) {
+    TablePlaneSetting setting;
+    setting.sample_points = sample;
+    const TablePlane table = find_table_plane(sc.cloud, setting);
+    ASSERT_TRUE(table.found) << sample;
+    EXPECT_LT(rad2deg(std::acos(std::min(1.0, table.plane.z()))), 0.05) << sample;
+    EXPECT_LT(std::abs(table.plane[3]), 2e-4) << sample;  // the table top is z = 0
+  }
+}
+
 TEST(LocalizeStages, HoughSearchHasTheTruePoseAmongItsPeaks) {
   const Scene sc = tube_scene(0.0008, 1);
   Prepared p = prepare(sc);
