@@ -7,11 +7,13 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 
 #include "core/error.hpp"
+#include "core/mesh_file.hpp"
 #include "perception/mesh_io.hpp"
 #include "tests/test_support.hpp"
 
@@ -172,6 +174,52 @@ TEST(MeshIo, MeshesNoPartCanBeAreRefusedNamingTheFile) {
     EXPECT_LT(std::string(e.what()).size(), 400u) << e.what();
     EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos);
   }
+}
+
+// Our STL reader gives the mesh Assimp gives (the reader before it; Assimp stays for COLLADA): the same
+// vertices, joined the same way, the same faces. The project's parts, the vendor's robot meshes (binary
+// files whose header begins with "solid"), faces without a normal in the file, and ASCII with two solids.
+TEST(MeshIo, StlReadsAsAssimpReadsIt) {
+  auto same = [](const std::string& path, double float_ulps) {
+    SCOPED_TRACE(path);
+    const Mesh ours = load_mesh(path);
+    const Mesh theirs = read_with_assimp(path, 1.0);
+    ASSERT_EQ(ours.vertices.size(), theirs.vertices.size());
+    ASSERT_EQ(ours.faces.size(), theirs.faces.size());
+    for (size_t i = 0; i < ours.faces.size(); ++i) ASSERT_EQ(ours.faces[i], theirs.faces[i]) << i;
+    for (size_t i = 0; i < ours.vertices.size(); ++i)
+      ASSERT_LE((ours.vertices[i] - theirs.vertices[i]).cwiseAbs().maxCoeff(),
+                float_ulps * 1.2e-7 * std::max(1.0, theirs.vertices[i].cwiseAbs().maxCoeff()))
+          << i;
+  };
+  for (const char* part : {"tube_on_plate", "round_on_plate", "tube_tee", "offset_tube_on_plate",
+                           "rect_tee_flat", "paper_tee", "cal_box"})
+    same(test::repo(std::string("scenes/parts/") + part + ".stl"), 0.0);
+  for (int link = 0; link <= 6; ++link)
+    same(test::repo("scenes/robots/aubo_description/meshes/aubo_i5/collision/link" + std::to_string(link) +
+                    ".STL"),
+         0.0);
+  const Mesh stl = load_mesh(test::repo("scenes/parts/tube_on_plate.stl"));
+  same(write("no_normals.stl", binary_stl(stl, 1.0)), 0.0);  // every face's normal 0 0 0
+  std::string ascii;
+  for (int solid = 0; solid < 2; ++solid) {
+    ascii += "solid part" + std::to_string(solid) + "\n";
+    for (const Eigen::Vector3i& f : stl.faces) {
+      const Vec3 &a = stl.vertices[static_cast<size_t>(f[0])], &b = stl.vertices[static_cast<size_t>(f[1])],
+                 &c = stl.vertices[static_cast<size_t>(f[2])];
+      const Vec3 n = (b - a).cross(c - a).normalized() + Vec3::Constant(0.1 * solid);
+      char line[200];
+      std::snprintf(line, sizeof line, " facet normal %.6e %.6e %.6e\n  outer loop\n", n.x(), n.y(), n.z());
+      ascii += line;
+      for (const Vec3* v : {&a, &b, &c}) {
+        std::snprintf(line, sizeof line, "   vertex %.7g %.7g %.7g\n", v->x() + solid, v->y(), v->z());
+        ascii += line;
+      }
+      ascii += "  endloop\n endfacet\n";
+    }
+    ascii += "endsolid part" + std::to_string(solid) + "\n";
+  }
+  same(write("two_solids.stl", ascii), 1.0);  // Assimp's own decimal parsing may round the last bit otherwise
 }
 
 // A robot's COLLADA visual mesh lies where its STL collision mesh lies (the vendor's upper arm: the file's
