@@ -39,6 +39,14 @@ struct PreparedPart::Impl {
   std::string path;                        ///< the model's kept file
   size_t bricks_read = 0, cells_read = 0;  ///< the lookup grids' bricks and cells read from the kept lookups
 
+  // A part given up while its build still runs (the command refused the cloud meanwhile) waits for the build
+  // before its fields go: the build writes them. (Without the wait, the members declared after `ready` went
+  // first, and the build saved the model under a freed path: a file named by heap bytes in the working
+  // directory.)
+  ~Impl() {
+    if (ready.valid()) ready.wait();
+  }
+
   void build(const Mesh& mesh, const LocalizeSetting& setting, const std::string& keep_dir) {
     min_z = 1e9;
     for (const Vec3& v : mesh.vertices) min_z = std::min(min_z, v.z());

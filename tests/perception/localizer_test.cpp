@@ -2,15 +2,18 @@
 // the closed-form planar step, ICP from perturbed starts), the parts found at the 1 mm / 0.5 deg bar in twin
 // scans and in the independent sample scans, wrong or missing parts refused, and bad input refused cleanly.
 #include "perception/localizer.hpp"
+#include "perception/localize/part_model_file.hpp"
 #include "perception/localize/planar_fit.hpp"
 #include "perception/localize/voxel_grid.hpp"
 
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
+#include <unistd.h>
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <set>
 
 #include "core/cloud_io.hpp"
 #include "core/error.hpp"
@@ -340,6 +343,36 @@ TEST(Localizer, RaysCastFromTheirViewpointsFindTheSquareTubeWhereItsPointsAloneD
     EXPECT_FALSE(zero.rays_cast);
     EXPECT_TRUE(zero.T_base_part.isApprox(without.T_base_part, 1e-12));
   }
+}
+
+// A command that refuses the cloud while the part is still being prepared (a malformed scan file) gives the
+// part up mid-build: the build still keeps the model where it was asked to, under its own name, and nothing
+// else (it once saved it under a freed path: a file named by heap bytes in the working directory).
+TEST(Localizer, APartGivenUpWhileItsBuildRunsIsKeptWhereAsked) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("weldtwin_given_up_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const Mesh mesh = load_mesh(test::repo("scenes/parts/tube_on_plate.stl"));
+  auto here = [&] {  // the working directory's entries, but for `dir` (it may lie there)
+    std::set<std::string> names;
+    for (const auto& e : fs::directory_iterator(fs::current_path()))
+      if (e.path().filename() != dir.filename()) names.insert(e.path().filename().string());
+    return names;
+  };
+  const std::set<std::string> before = here();
+  { const PreparedPart given_up(mesh, LocalizeSetting(), true, dir.string()); }
+  std::vector<std::string> kept;
+  if (fs::exists(dir))
+    for (const auto& e : fs::directory_iterator(dir)) kept.push_back(e.path().filename().string());
+  EXPECT_EQ(here(), before);
+  double min_z = 1e9;
+  for (const Vec3& v : mesh.vertices) min_z = std::min(min_z, v.z());
+  if (part_model_key(mesh, min_z, LocalizeSetting().model) == 0)
+    GTEST_SKIP() << "this build has no build id: nothing is kept";
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_EQ(kept[0].size(), 16u + 5u) << kept[0];  // 16 hex digits of the key, ".part"
+  EXPECT_EQ(fs::path(kept[0]).extension(), ".part");
+  fs::remove_all(dir);
 }
 
 TEST(Localizer, APreparedPartGivesTheMeshsAnswersScanAfterScan) {
