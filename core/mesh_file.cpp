@@ -111,7 +111,8 @@ Mesh read_obj(const std::string& path) {
 // they first appear. Ours rather than Assimp's: loading Assimp costs every process 9 ms at start.
 class StlJoiner {
  public:
-  explicit StlJoiner(Mesh& mesh, double scale) : mesh_(mesh), scale_(scale), base_(mesh.vertices.size()) {}
+  StlJoiner(Mesh& mesh, double scale, const std::string& path)
+      : mesh_(mesh), scale_(scale), base_(mesh.vertices.size()), path_(path) {}
   void face(const std::array<float, 3>& normal, const std::array<std::array<float, 3>, 3>& corners) {
     Eigen::Vector3i f;
     for (int k = 0; k < 3; ++k) f[k] = vertex(corners[static_cast<size_t>(k)], normal);
@@ -121,6 +122,9 @@ class StlJoiner {
  private:
   int vertex(const std::array<float, 3>& at, const std::array<float, 3>& normal) {
     constexpr float kNormalTie2 = 1e-10f;  // squared: Assimp's 1e-5 on normals
+    // Refused as read: a NaN would break the ordering of the map the corners are joined by.
+    if (!std::isfinite(at[0]) || !std::isfinite(at[1]) || !std::isfinite(at[2]))
+      throw input_error(path_, "mesh has a non-finite vertex");
     const auto key = std::tuple(at[0], at[1], at[2]);
     std::vector<size_t>& same = at_[key];
     for (size_t u : same) {
@@ -136,6 +140,7 @@ class StlJoiner {
   Mesh& mesh_;
   double scale_;
   size_t base_;
+  const std::string& path_;
   std::map<std::tuple<float, float, float>, std::vector<size_t>> at_;
   std::vector<std::array<float, 3>> normals_;
 };
@@ -151,7 +156,7 @@ Mesh read_stl(const std::string& path, double scale) {
   uint32_t count = 0;
   if (size >= kStlHeader + 4) std::memcpy(&count, data + kStlHeader, 4);
   if (size >= kStlHeader + 4 && size == kStlHeader + 4 + kStlRecord * static_cast<size_t>(count)) {
-    StlJoiner join(mesh, scale);
+    StlJoiner join(mesh, scale, path);
     mesh.vertices.reserve(3 * static_cast<size_t>(count));
     for (size_t i = 0; i < count; ++i) {
       float v[12];
@@ -167,7 +172,7 @@ Mesh read_stl(const std::string& path, double scale) {
   if (!(in >> word) || word != "solid")
     throw input_error(path, "cannot read the mesh: neither a binary STL (" + std::to_string(size) +
                                 " bytes for " + std::to_string(count) + " faces) nor an ASCII one ('solid')");
-  std::unique_ptr<StlJoiner> join = std::make_unique<StlJoiner>(mesh, scale);
+  std::unique_ptr<StlJoiner> join = std::make_unique<StlJoiner>(mesh, scale, path);
   std::getline(in, word);  // the solid's name
   // A word of the file as a message quotes it: at most 40 characters, anything unprintable as '?'.
   auto quoted = [](std::string w) {
@@ -197,7 +202,7 @@ Mesh read_stl(const std::string& path, double scale) {
     }
     if (word == "solid") {
       std::getline(in, word);
-      join = std::make_unique<StlJoiner>(mesh, scale);
+      join = std::make_unique<StlJoiner>(mesh, scale, path);
       continue;
     }
     if (word != "facet")

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -159,6 +160,14 @@ TEST(MeshIo, MeshesNoPartCanBeAreRefusedNamingTheFile) {
   Mesh huge = stl;
   huge.vertices[huge.faces[0][0]] = Vec3(8.6e36, 0, 0);
   expect_refused(write("huge.stl", binary_stl(huge, 1.0)), "m across");
+  // A corner not a number, binary and ASCII: refused as read (the corners are joined by position).
+  Mesh nan = stl;
+  nan.vertices[nan.faces[3][1]] = Vec3(0.01, std::nan(""), 0.02);
+  expect_refused(write("nan.stl", binary_stl(nan, 1.0)), "mesh has a non-finite vertex");
+  expect_refused(write("nan_ascii.stl",
+                       "solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 0.1 0 0\n"
+                       "vertex 0 nan 0\nendloop\nendfacet\nendsolid s\n"),
+                 "mesh has a non-finite vertex");
   // Every face without an area.
   Mesh flat = stl;
   for (Vec3& v : flat.vertices) v = Vec3(0.1, 0.2, 0.3);
