@@ -188,13 +188,18 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   Candidate& best = refined.front();
 
   // 4b. The seams, to say which poses weld the same place and how far a pose may be off there: the part
-  // spec's, or else the whole visible surface of the part (resting frame).
+  // spec's, or else the whole visible surface of the part (resting frame). How far the weld may be off is
+  // taken where it is measured: for full circles about one axis, at the axis (a turn about it moves the weld
+  // along the seam). The wall side's rivals are still told apart over the seam points: a fit turned about the
+  // axis counts there, so that the margin never rests on a wall side the turn alone decides.
   const Iso3 lift = make_transform(Vec3(0, 0, -min_z), Mat3::Identity());  // mesh frame -> resting frame
-  std::vector<Vec3> seams;
+  std::vector<Vec3> seams, seam_error_at;
   for (const Vec3& p : seam_points) seams.push_back(lift * p);
+  for (const Vec3& p : seam_error_points(seam_points, s.verdict)) seam_error_at.push_back(lift * p);
   if (seams.empty())
     for (size_t i = 0; i < model.pts.size(); i += static_cast<size_t>(s.verdict.surface_stride))
       if (model.visible[i]) seams.push_back(model.pts[i]);
+  if (seam_error_at.empty()) seam_error_at = seams;
   std::vector<const Candidate*> candidates;
   for (const Candidate& r : refined) candidates.push_back(&r);
   for (Candidate& r : coarse) {
@@ -239,14 +244,14 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
     const IcpResult f = planar_icp(thinned(rays, static_cast<size_t>(s.icp.fine_points)), scene, model,
                                    best.P, s.icp.fine_iterations, true, marked);
     const PoseUncertainty with_edges = pose_uncertainty(f.terms, s.uncertainty);
-    out.edge_shift_m = std::max(0.0, seam_error_bound_m(with_edges, seams, s.uncertainty) -
-                                         seam_error_bound_m(uncertainty, seams, s.uncertainty));
+    out.edge_shift_m = std::max(0.0, seam_error_bound_m(with_edges, seam_error_at, s.uncertainty) -
+                                         seam_error_bound_m(uncertainty, seam_error_at, s.uncertainty));
     out.edge_turn_rad =
         std::max(0.0, yaw_bound_rad(with_edges, s.uncertainty) - yaw_bound_rad(uncertainty, s.uncertainty));
     // Whether the sweep's passes, each fitted alone, agree on where the seams are (a mount that is off
     // moves each pass its own way).
     const PassAgreement passes =
-        pass_agreement(rays, scene, model, best.P, seams, s.icp, s.uncertainty, s.passes);
+        pass_agreement(rays, scene, model, best.P, seam_error_at, s.icp, s.uncertainty, s.passes);
     out.passes_fitted = passes.passes;
     out.pass_excess_m = passes.excess_m;
     out.pass_apart_m = passes.apart_m;
@@ -255,7 +260,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   out.covariance = uncertainty.covariance;
   out.yaw_bound_rad = yaw_bound_rad(uncertainty, s.uncertainty);
   out.seam_error_bound_m =
-      seam_error_bound_m(uncertainty, seams, s.uncertainty) + out.wall_side_bias_m + out.edge_shift_m;
+      seam_error_bound_m(uncertainty, seam_error_at, s.uncertainty) + out.wall_side_bias_m + out.edge_shift_m;
   // A fit about as likely that welds within the tolerance of this one is part of the uncertainty; one beyond
   // it makes the answer ambiguous (the verdict).
   if (out.margin_llr < s.verdict.min_margin_llr && out.rival_offset_m <= s.verdict.weld_tolerance_m)

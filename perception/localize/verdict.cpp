@@ -34,6 +34,12 @@ bool same_seams(const std::vector<Vec3>& seam, const Iso3& D, const VerdictSetti
   return true;
 }
 
+Vec3 centroid(const std::vector<Vec3>& points) {
+  Vec3 c = Vec3::Zero();
+  for (const Vec3& p : points) c += p;
+  return c / static_cast<double>(points.size());
+}
+
 }  // namespace
 
 std::vector<const Candidate*> distinct_rivals(const Candidate& best,
@@ -57,13 +63,16 @@ std::vector<const Candidate*> distinct_rivals(const Candidate& best,
 
 bool seams_turn_onto_themselves(const std::vector<Vec3>& seams, const VerdictSetting& s) {
   if (seams.empty()) return false;
-  Vec3 c = Vec3::Zero();
-  for (const Vec3& p : seams) c += p;
-  c /= static_cast<double>(seams.size());
+  const Vec3 c = centroid(seams);
   constexpr double kTurnDeg = 5.0;  // a turn this big moves a seam that is not a circle off itself
   const Iso3 D = make_transform(c, Mat3::Identity()) * planar_pose(0, 0, 0, deg2rad(kTurnDeg)) *
                  make_transform(-c, Mat3::Identity());
   return same_seams(seams, D, s);
+}
+
+std::vector<Vec3> seam_error_points(const std::vector<Vec3>& seams, const VerdictSetting& s) {
+  if (!seams_turn_onto_themselves(seams, s)) return seams;
+  return {centroid(seams)};
 }
 
 double ambiguity(const Candidate& best, const std::vector<const Candidate*>& rivals, PartModel& model,

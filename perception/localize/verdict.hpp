@@ -68,6 +68,11 @@ double ambiguity(const Candidate& best, const std::vector<const Candidate*>& riv
 /// full circle): then the part's yaw does not move the weld.
 bool seams_turn_onto_themselves(const std::vector<Vec3>& seam_points, const VerdictSetting& setting = {});
 
+/// The points whose moves are the seam error: the seam points themselves, or, for seams that turn onto
+/// themselves, one point on their axis (a turn about it moves the weld along the seam, not off it; the
+/// seam error is how far the axis moves).
+std::vector<Vec3> seam_error_points(const std::vector<Vec3>& seam_points, const VerdictSetting& setting = {});
+
 /// What the verdict weighs.
 struct VerdictInput {
   Score score;                  ///< of the best pose
