@@ -185,6 +185,9 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   std::vector<Candidate>& refined = refinement.refined;
   stage("refine");
   if (refined.empty()) return finish("no pose survived the refinement");
+  // With rays, of finalists scoring nearly alike the one that rays went through decisively less often (one
+  // pass may see a part's long end from no side: the part turned end for end scores as well).
+  if (!scene.ray_points.empty()) std::swap(refined.front(), refined[best_by_rays(refined, s.verdict)]);
   Candidate& best = refined.front();
 
   // 4b. The seams, to say which poses weld the same place and how far a pose may be off there: the part
@@ -202,12 +205,18 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   if (seam_error_at.empty()) seam_error_at = seams;
   std::vector<const Candidate*> candidates;
   for (const Candidate& r : refined) candidates.push_back(&r);
-  for (Candidate& r : coarse) {
-    // With rays, a coarse rival that scores nearly as well must leave the rays room as the best does.
-    if (!scene.ray_points.empty() && r.score.support() >= s.verdict.ambiguity_ratio * best.score.support())
-      look_with_rays(refine_in, r, s.score, s.see_through);
-    candidates.push_back(&r);
-  }
+  // With rays, a coarse rival that scores nearly as well is refined by them as the finalists were (its coarse
+  // fit may stand a wall's thickness off, where the rays' fit would meet the best), and must leave the rays
+  // room as the best does.
+  std::vector<size_t> close;
+  for (size_t i = 0; i < coarse.size(); ++i)
+    if (!scene.ray_points.empty() &&
+        coarse[i].score.support() >= s.verdict.ambiguity_ratio * best.score.support())
+      close.push_back(i);
+  parallel_for(close.size(), s.threads, [&](size_t k) {
+    coarse[close[k]] = refine_with_rays(refine_in, coarse[close[k]], s.icp, s.score, s.see_through);
+  });
+  for (const Candidate& r : coarse) candidates.push_back(&r);
   const std::vector<const Candidate*> rivals = distinct_rivals(best, candidates, model, s.verdict);
 
   // 4c. Without viewpoints: the exact surface decides the wall side, and between the best pose and the

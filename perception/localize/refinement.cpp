@@ -21,6 +21,17 @@ void look_with_rays(const RefineInput& in, Candidate& c, const PoseScoreSetting&
   c.rays_looked = true;
 }
 
+Candidate refine_with_rays(const RefineInput& in, const Candidate& c, const PlanarIcpSetting& icp,
+                           const PoseScoreSetting& score, const SeeThroughSetting& see_through) {
+  const std::vector<ScanPoint> near =
+      thinned(rays_near_pose(in.scene, in.scan_base, in.viewpoints_base, in.model, c.P, icp.rays),
+              static_cast<size_t>(icp.fine_points));
+  const IcpResult f = planar_icp(near, in.scene, in.model, c.P, icp.fine_iterations, true, icp);
+  Candidate out{f.P, f, score_pose(in.scene, in.footprint, in.model, f.P, score)};
+  look_with_rays(in, out, score, see_through);
+  return out;
+}
+
 Refinement refine_hypotheses(const RefineInput& in, const std::vector<Hypothesis>& hyps,
                              const PlanarIcpSetting& icp, const PoseScoreSetting& score,
                              const SeeThroughSetting& see_through, const RefineSetting& s, int threads) {
@@ -66,13 +77,7 @@ Refinement refine_hypotheses(const RefineInput& in, const std::vector<Hypothesis
         fine[i] = chosen[i];
         return;
       }
-      const Iso3& P = chosen[i].P;
-      const std::vector<ScanPoint> near =
-          thinned(rays_near_pose(scene, in.scan_base, in.viewpoints_base, model, P, icp.rays),
-                  static_cast<size_t>(icp.fine_points));
-      const IcpResult f = planar_icp(near, scene, model, P, icp.fine_iterations, true, icp);
-      fine[i] = {f.P, f, score_pose(scene, in.footprint, model, f.P, score)};
-      look_with_rays(in, fine[i], score, see_through);
+      fine[i] = refine_with_rays(in, chosen[i], icp, score, see_through);
     });
     refined.insert(refined.end(), fine.begin(), fine.end());
     if (std::any_of(refined.begin(), refined.end(), [](const Candidate& c) { return c.score.allowed(); }))

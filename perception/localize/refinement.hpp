@@ -43,6 +43,10 @@ Refinement refine_hypotheses(const RefineInput& in, const std::vector<Hypothesis
                              const PlanarIcpSetting& icp, const PoseScoreSetting& score,
                              const SeeThroughSetting& see_through, const RefineSetting& refine, int threads);
 
+/// A candidate refined by casting the rays near it (the fine fit) and scored, rays looked at.
+Candidate refine_with_rays(const RefineInput& in, const Candidate& c, const PlanarIcpSetting& icp,
+                           const PoseScoreSetting& score, const SeeThroughSetting& see_through);
+
 /// What the rays say of a candidate: the share of them that go through it, and what they reached of it that
 /// the scan shows (Candidate::rays_looked).
 void look_with_rays(const RefineInput& in, Candidate& c, const PoseScoreSetting& score,

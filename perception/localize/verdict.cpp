@@ -75,19 +75,33 @@ std::vector<Vec3> seam_error_points(const std::vector<Vec3>& seams, const Verdic
   return {centroid(seams)};
 }
 
+bool decisively_more_rays_through(const Candidate& more, const Candidate& fewer, const VerdictSetting& s) {
+  if (!more.rays_looked || !fewer.rays_looked) return false;
+  const int excess = more.score.through_count - fewer.score.through_count;
+  return excess >= s.min_rays_decisive &&
+         excess > s.rays_decisive_sigmas *
+                      std::sqrt(static_cast<double>(more.score.through_count + fewer.score.through_count));
+}
+
+size_t best_by_rays(const std::vector<Candidate>& refined, const VerdictSetting& s) {
+  size_t k = 0;
+  for (size_t i = 1; i < refined.size(); ++i) {
+    const Candidate& r = refined[i];
+    if (r.score.allowed() && r.score.support() >= s.ambiguity_ratio * refined[0].score.support() &&
+        decisively_more_rays_through(refined[0], r, s) &&
+        (k == 0 || r.score.through_count < refined[k].score.through_count))
+      k = i;
+  }
+  return k;
+}
+
 double ambiguity(const Candidate& best, const std::vector<const Candidate*>& rivals, PartModel& model,
                  const VerdictSetting& s) {
   double out = 0.0;
   for (const Candidate* r : distinct_rivals(best, rivals, model, s)) {
     // With rays, a rival through which decisively more rays went than through the best explains the scan
-    // worse, whatever its support: a ray seen well behind a surface is strong evidence against that surface.
-    if (r->rays_looked && best.rays_looked) {
-      const int excess = r->score.through_count - best.score.through_count;
-      if (excess >= s.min_rays_decisive &&
-          excess > s.rays_decisive_sigmas *
-                       std::sqrt(static_cast<double>(r->score.through_count + best.score.through_count)))
-        continue;
-    }
+    // worse, whatever its support.
+    if (decisively_more_rays_through(*r, best, s)) continue;
     out = std::max(out, r->score.support() / std::max(1e-9, best.score.support()));
   }
   return out;

@@ -60,6 +60,17 @@ std::vector<const Candidate*> distinct_rivals(const Candidate& best,
                                               const std::vector<const Candidate*>& rivals, PartModel& model,
                                               const VerdictSetting& setting = {});
 
+/// Whether, with rays, decisively more of them went through `more` than through `fewer` (a ray seen well
+/// behind a surface is strong evidence against that surface): by rays_decisive_sigmas of the two counts and
+/// by at least min_rays_decisive rays.
+bool decisively_more_rays_through(const Candidate& more, const Candidate& fewer,
+                                  const VerdictSetting& setting = {});
+
+/// With rays: the finalist (index into `refined`, best first) that explains the scan best. The first, unless
+/// another scores nearly as well (ambiguity_ratio) and decisively fewer rays went through it than through the
+/// first: then the one of those with the fewest rays through it.
+size_t best_by_rays(const std::vector<Candidate>& refined, const VerdictSetting& setting = {});
+
 /// The best distinct rival's support over the best's (0: none).
 double ambiguity(const Candidate& best, const std::vector<const Candidate*>& rivals, PartModel& model,
                  const VerdictSetting& setting = {});

@@ -419,6 +419,32 @@ TEST(LocalizeStages, ARivalThroughWhichDecisivelyMoreRaysWentIsNotAmbiguous) {
   EXPECT_GT(ambiguity(best, {&best, &rival}, model), VerdictSetting().ambiguity_ratio);
 }
 
+TEST(LocalizeStages, OfFinalistsScoringAlikeTheOneRaysWentThroughLessIsTheBest) {
+  // The paper's tee of one pass: turned end for end about its stem it scores as well (its long end seen from
+  // no side), but 126 rays went through it against 44 through the right pose.
+  std::vector<Candidate> refined(3);
+  for (Candidate& c : refined) {
+    c.score.inliers = 1000;
+    c.score.coverage = 0.4;
+    c.rays_looked = true;
+  }
+  refined[0].score.through_count = 126;
+  refined[1].score.through_count = 44;
+  refined[1].score.inliers = 990;  // a little less support: the first by the support
+  refined[2].score.through_count = 50;
+  EXPECT_EQ(best_by_rays(refined), 1u);
+  refined[1].score.through_count = 110;  // 16 fewer, within the counts' spread: the support decides ...
+  EXPECT_EQ(best_by_rays(refined), 2u);  // ... but not against the third's 76 fewer
+  refined[2].score.inliers = 800;        // support beneath the ambiguity ratio: not a contender
+  EXPECT_EQ(best_by_rays(refined), 0u);
+  refined[1].score.through_count = 44;
+  refined[1].rays_looked = false;  // not looked at with rays: the support decides
+  EXPECT_EQ(best_by_rays(refined), 0u);
+  refined[1].rays_looked = true;
+  refined[1].score.free_space = 0.5;  // the table seen where it would stand: not allowed
+  EXPECT_EQ(best_by_rays(refined), 0u);
+}
+
 TEST(LocalizeStages, APoseThatOnlyPutsTheSeamsInPlaceIsARival) {
   // The paper's tee turned half round about its stem: the four seams round the stem's foot map onto
   // themselves, but the lying tube's long arm points the other way, where the torch must clear it. The tube
