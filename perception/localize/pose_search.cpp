@@ -203,10 +203,14 @@ PoseSearchResult search_poses(const ScenePoints& scene, PartModel& model, const 
   for (const Hypothesis& h : peaks) {
     if (static_cast<int>(hyps.size()) >= s.hypotheses) break;
     bool close = false;
-    for (const Hypothesis& o : hyps)
-      close = close || (std::hypot(o.x - h.x, o.y - h.y) < s.distinct_xy_m &&
+    int here = 0;  // peaks already taken at this place, whatever their turn
+    for (const Hypothesis& o : hyps) {
+      const bool same_place = std::hypot(o.x - h.x, o.y - h.y) < s.distinct_xy_m;
+      here += same_place;
+      close = close || (same_place &&
                         std::abs(std::remainder(o.yaw - h.yaw, 2 * kPi)) < deg2rad(s.distinct_yaw_deg));
-    if (!close) hyps.push_back(h);
+    }
+    if (!close && here < s.max_turns_per_place) hyps.push_back(h);
   }
 
   // A quick look at every peak (how many of a thin sample of points lie near the model there) decides

@@ -22,6 +22,9 @@ struct PoseSearchSetting {
   int hypotheses = 36;            ///< Hough peaks looked at
   double distinct_xy_m = 0.01;    ///< peaks closer than this in x, y ... [m]
   double distinct_yaw_deg = 6.0;  ///< ... and in yaw are one peak [deg]
+  /// At most this many peaks at one place (within distinct_xy_m), whatever their turn: a round thing votes
+  /// for every turn at its centre, and would take every peak
+  int max_turns_per_place = 8;
   int quick_look_points = 800;    ///< points of the quick look
   double quick_look_m = 0.006;    ///< a point within this of a model sample counts in the quick look [m]
 };
