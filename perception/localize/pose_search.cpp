@@ -207,8 +207,8 @@ PoseSearchResult search_poses(const ScenePoints& scene, PartModel& model, const 
     for (const Hypothesis& o : hyps) {
       const bool same_place = std::hypot(o.x - h.x, o.y - h.y) < s.distinct_xy_m;
       here += same_place;
-      close = close || (same_place &&
-                        std::abs(std::remainder(o.yaw - h.yaw, 2 * kPi)) < deg2rad(s.distinct_yaw_deg));
+      close = close ||
+              (same_place && std::abs(std::remainder(o.yaw - h.yaw, 2 * kPi)) < deg2rad(s.distinct_yaw_deg));
     }
     if (!close && here < s.max_turns_per_place) hyps.push_back(h);
   }

@@ -25,8 +25,8 @@ struct PoseSearchSetting {
   /// At most this many peaks at one place (within distinct_xy_m), whatever their turn: a round thing votes
   /// for every turn at its centre, and would take every peak
   int max_turns_per_place = 8;
-  int quick_look_points = 800;    ///< points of the quick look
-  double quick_look_m = 0.006;    ///< a point within this of a model sample counts in the quick look [m]
+  int quick_look_points = 800;  ///< points of the quick look
+  double quick_look_m = 0.006;  ///< a point within this of a model sample counts in the quick look [m]
 };
 
 /// A pose of the model on the table: T_table_part = planar_pose(x, y, 0, yaw).
