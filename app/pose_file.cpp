@@ -40,7 +40,15 @@ nlohmann::json pose_to_json(const PoseEstimate& pose) {
   for (int r = 0; r < 3; ++r)
     out["covariance_yaw_x_y"].push_back(
         {pose.covariance(r, 0), pose.covariance(r, 1), pose.covariance(r, 2)});
-  if (pose.rays_cast) out["see_through_share"] = pose.see_through_share;
+  if (pose.rays_cast) {
+    out["see_through_share"] = pose.see_through_share;
+    // The region of the model most rays went through, away from its depth edges (see_through.hpp).
+    out["see_through_region"] = {
+        {"rays_through", pose.region_through},
+        {"rays_met", pose.region_rays},
+        {"at_mm",
+         {1e3 * pose.region_at_part.x(), 1e3 * pose.region_at_part.y(), 1e3 * pose.region_at_part.z()}}};
+  }
   if (pose.rays_cast && pose.reached_coverage >= 0) out["reached_coverage"] = pose.reached_coverage;
   if (pose.rays_cast)  // what the bound allows for mixed pixels at the model's depth edges
     out["depth_edge_bias_mm"] =

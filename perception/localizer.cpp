@@ -289,6 +289,9 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   out.beyond_share = extent.share();
   out.beyond_extent_m = extent.extent_m;
   out.see_through_share = best.score.see_through;
+  out.region_through = best.score.region_through;
+  out.region_rays = best.score.region_rays;
+  out.region_at_part = lift.inverse() * best.score.region_at;
   out.reached_coverage = best.score.reached_coverage;
   out.beyond_at_part = lift.inverse() * extent.centre;
   stage("verdict");
@@ -312,6 +315,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   verdict.beyond_extent_m = out.beyond_extent_m;
   verdict.see_through_share = out.see_through_share;
   verdict.max_see_through_share = s.score.max_see_through_share;
+  verdict.region_at_part = out.region_at_part;
   verdict.reached_coverage = out.reached_coverage;
   verdict.pass_excess_m = out.pass_excess_m;
   verdict.pass_apart_m = out.pass_apart_m;

@@ -98,6 +98,11 @@ struct PoseEstimate {
   /// With viewpoints: the share of the rays crossing the model's box that went through the model (the point
   /// seen well behind the model's surface on its ray).
   double see_through_share = 0.0;
+  /// With viewpoints: the region of the model where most rays went through it away from its depth edges
+  /// (see_through.hpp): how many, of how many that met the model there, and its centre (part frame, mesh
+  /// units) [m]
+  int region_through = 0, region_rays = 0;
+  Vec3 region_at_part = Vec3::Zero();
   /// With viewpoints: the share of the model's samples the sweep's rays reached that the scan confirms (what
   /// one short pass could have seen of the part; -1 when the rays reached none).
   double reached_coverage = -1.0;

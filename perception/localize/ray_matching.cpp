@@ -37,6 +37,21 @@ std::vector<ScanPoint> rays_near_pose(const ScenePoints& scene, const std::vecto
   return near;
 }
 
+bool ray_near_depth_edge(const PartModel& m, const Vec3& o, const Vec3& d, double t, double range,
+                         const RayMatchSetting& s) {
+  // Rays beside it, across it both ways, this far off where it meets the model (or at its point).
+  const double reach = range + s.ray_window_m;
+  const Vec3 a = d.unitOrthogonal(), b = d.cross(a);
+  const double at = std::isfinite(t) ? t : range;
+  for (const Vec3& e : {a, b, Vec3(-a), Vec3(-b)}) {
+    const double t2 =
+        m.rays->hit(o, (d + (s.beam_offset_m / at) * e).normalized(), 0.0, reach + s.depth_jump_m);
+    if (std::isfinite(t) != std::isfinite(t2) || (std::isfinite(t) && std::abs(t2 - t) > s.depth_jump_m))
+      return true;
+  }
+  return false;
+}
+
 std::vector<uint8_t> rays_near_depth_edges(const std::vector<ScanPoint>& rays, const PartModel& m,
                                            const Iso3& P, const RayMatchSetting& s) {
   std::vector<uint8_t> near(rays.size(), 0);
@@ -44,19 +59,8 @@ std::vector<uint8_t> rays_near_depth_edges(const std::vector<ScanPoint>& rays, c
     const ScanPoint& sp = rays[i];
     if (sp.range <= 0.0) continue;
     const Vec3 o = P * sp.origin, d = P.linear() * sp.ray;
-    const double reach = sp.range + s.ray_window_m;
-    const double t = m.rays->hit(o, d, 0.0, reach);
-    // Rays beside it, across it both ways, this far off where it meets the model (or at its point).
-    const Vec3 a = d.unitOrthogonal(), b = d.cross(a);
-    const double at = std::isfinite(t) ? t : sp.range;
-    for (const Vec3& e : {a, b, Vec3(-a), Vec3(-b)}) {
-      const double t2 =
-          m.rays->hit(o, (d + (s.beam_offset_m / at) * e).normalized(), 0.0, reach + s.depth_jump_m);
-      if (std::isfinite(t) != std::isfinite(t2) || (std::isfinite(t) && std::abs(t2 - t) > s.depth_jump_m)) {
-        near[i] = 1;
-        break;
-      }
-    }
+    const double t = m.rays->hit(o, d, 0.0, sp.range + s.ray_window_m);
+    near[i] = ray_near_depth_edge(m, o, d, t, sp.range, s);
   }
   return near;
 }

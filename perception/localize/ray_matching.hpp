@@ -44,14 +44,19 @@ std::vector<ScanPoint> rays_near_pose(const ScenePoints& scene, const std::vecto
                                       const std::vector<Vec3>& viewpoints_base, PartModel& model,
                                       const Iso3& P, const RayMatchSetting& setting = {});
 
-/// face[i]: the model sample where ray i meets the model at pose P, or -1 where it meets something else,
-/// a level face, a face seen from behind, or lands near a feature edge or the table (within edge_margin_m),
-/// where which face a ray meets changes with the pose itself.
 /// Per ray of `rays` (with their origins, table frame): whether it passes near a depth edge of the model at
 /// pose P (see RayMatchSetting::beam_offset_m).
 std::vector<uint8_t> rays_near_depth_edges(const std::vector<ScanPoint>& rays, const PartModel& model,
                                            const Iso3& P, const RayMatchSetting& setting = {});
 
+/// Whether the ray from `origin` along unit `dir` (part frame), whose point lies `range` away and which
+/// meets the model `t` along (infinite: not within range + ray_window_m), passes near a depth edge of it.
+bool ray_near_depth_edge(const PartModel& model, const Vec3& origin, const Vec3& dir, double t, double range,
+                         const RayMatchSetting& setting);
+
+/// face[i]: the model sample where ray i meets the model at pose P, or -1 where it meets something else,
+/// a level face, a face seen from behind, or lands near a feature edge or the table (within edge_margin_m),
+/// where which face a ray meets changes with the pose itself.
 void match_rays(const std::vector<ScanPoint>& rays, PartModel& model, const Iso3& P, double edge_margin_m,
                 const RayMatchSetting& setting, std::vector<int>& face);
 

@@ -16,6 +16,10 @@ void look_with_rays(const RefineInput& in, Candidate& c, const PoseScoreSetting&
   c.score.see_through = rays.share();
   c.score.ray_count = rays.rays;
   c.score.through_count = rays.through;
+  c.score.region_through = rays.region_through;
+  c.score.region_rays = rays.region_rays;
+  c.score.region_at = rays.region_at;
+  c.score.region_seen_through = rays.region_seen_through;
   if (std::find(rays.reached.begin(), rays.reached.end(), 1) != rays.reached.end())
     c.score.reached_coverage = coverage(in.scene, in.model, c.P, rays.reached, score);
   c.rays_looked = true;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <unordered_map>
 
 namespace weldtwin {
 namespace {
@@ -24,6 +25,13 @@ bool crosses_box(const Vec3& a, const Vec3& b, const Vec3& lo, const Vec3& hi) {
   return true;
 }
 
+// The cube of `region_m` holding p, as one key.
+long long region_key(const Vec3& p, double region_m) {
+  constexpr long long kSpan = 1 << 20;  // cubes per axis (a part a few metres wide at 25 mm uses 200)
+  auto index = [&](double v) { return static_cast<long long>(std::floor(v / region_m)) + kSpan / 2; };
+  return (index(p.x()) * kSpan + index(p.y())) * kSpan + index(p.z());
+}
+
 }  // namespace
 
 SeeThrough rays_through_model(const ScenePoints& scene, const std::vector<Vec3>& scan_base,
@@ -39,6 +47,11 @@ SeeThrough rays_through_model(const ScenePoints& scene, const std::vector<Vec3>&
   std::vector<uint32_t> idx;
   std::vector<double> d2;
   std::vector<uint32_t> crossing;
+  struct Region {
+    int met = 0, through = 0;
+    Vec3 at = Vec3::Zero();
+  };
+  std::unordered_map<long long, Region> regions;
   for (uint32_t i : scene.ray_points) {
     const Vec3 q = T * scan_base[i], o = T * viewpoints_base[i];
     if (crosses_box(o, q, lo, hi)) crossing.push_back(i);
@@ -53,13 +66,34 @@ SeeThrough rays_through_model(const ScenePoints& scene, const std::vector<Vec3>&
     const Vec3 d = (q - o) / range;
     const double t = model.rays->hit(o, d, 0.0, range + short_of);
     if (!std::isfinite(t)) continue;  // the ray misses the model, or stopped short of it
-    if (t < range - behind) ++out.through;
+    const Vec3 hit = o + t * d;
+    Region& region = regions[region_key(hit, s.region_m)];
+    ++region.met;
+    if (t < range - behind) {
+      ++out.through;
+      if (!ray_near_depth_edge(model, o, d, t, range, s.edges)) {
+        ++region.through;
+        region.at =
+            s.region_m * (hit / s.region_m).array().floor().matrix() + Vec3::Constant(0.5 * s.region_m);
+      }
+    }
     // It reached the model's surface, whether its point lies there or behind.
-    if (model.tree.knn(o + t * d, static_cast<size_t>(s.reach_neighbours), idx, d2) == 0) continue;
+    if (model.tree.knn(hit, static_cast<size_t>(s.reach_neighbours), idx, d2) == 0) continue;
     // Samples of the face the ray met, not of the wall's other face a few millimetres behind it.
     for (size_t j = 0; j < idx.size(); ++j)
       if (d2[j] <= s.reach_radius_m * s.reach_radius_m && model.nrm[idx[j]].dot(d) < 0.0)
         out.reached[idx[j]] = 1;
+  }
+  for (const auto& [key, r] : regions) {
+    const bool seen_through =
+        r.through >= s.min_region_through && r.through >= s.region_through_share * r.met;
+    if (seen_through > out.region_seen_through ||
+        (seen_through == out.region_seen_through && r.through > out.region_through)) {
+      out.region_seen_through = seen_through;
+      out.region_through = r.through;
+      out.region_rays = r.met;
+      out.region_at = r.at;
+    }
   }
   return out;
 }

@@ -104,9 +104,10 @@ struct VerdictInput {
   double max_free_space = 0.02;
   double see_through_share = 0.0;  ///< with rays: the share of those crossing the model that went through it
   double max_see_through_share = 0.15;
-  double reached_coverage = -1.0;  ///< with rays: the coverage of the samples they reached (-1: none)
-  double beyond_extent_m = 0.0;    ///< the longest stretch of the model's faces continued past its edges with
-                                   ///< the scan on them [m] ...
+  Vec3 region_at_part = Vec3::Zero();  ///< with rays: score.region_at in the part frame [m]
+  double reached_coverage = -1.0;      ///< with rays: the coverage of the samples they reached (-1: none)
+  double beyond_extent_m = 0.0;  ///< the longest stretch of the model's faces continued past its edges with
+                                 ///< the scan on them [m] ...
   Vec3 beyond_at_part = Vec3::Zero();  ///< ... and its centre (part frame) [m]
   /// With viewpoints: how much farther apart than their 95 % bound the two passes that disagree most put
   /// the seams, each fitted alone [m] (pass_agreement.hpp) ...

@@ -431,6 +431,42 @@ TEST(LocalizeStages, RaysGoThroughAModelPutWhereThePartIsNot) {
   EXPECT_NE(verdict_reason(in).find("saw through"), std::string::npos) << verdict_reason(in);
 }
 
+TEST(LocalizeStages, RaysThroughOneRegionOfAModelSayItIsNotThereWhateverTheRestSays) {
+  // Sought with a model whose plate reaches 60 mm further on +x than the part's (a different part standing
+  // on the real one), at the real part's place: most rays that meet the model meet it where the two agree,
+  // but those that meet the extension reach the table behind it. The region where they do is found, on the
+  // extension; the right model has no such region. Away from the model's depth edges: rays that graze an
+  // edge may report a range behind it (a mixed pixel) and are not counted.
+  RayScene r(8);
+  ASSERT_TRUE(r.table_found);
+  const SeeThrough right = rays_through_model(r.scene, r.cloud, r.vps, r.model, r.P0);
+  EXPECT_FALSE(right.region_seen_through);
+  EXPECT_LT(right.region_through, SeeThroughSetting().min_region_through);
+  Mesh wider = r.sc.mesh;
+  for (Vec3& v : wider.vertices)
+    if (v.x() > 0.07) v.x() += 0.06;
+  PartModel other;
+  build_part_model(wider, 0.0, PartModelSetting(), 0, other);
+  const SeeThrough wrong = rays_through_model(r.scene, r.cloud, r.vps, other, r.P0);
+  EXPECT_LT(wrong.share(), PoseScoreSetting().max_see_through_share);  // over all of it: under the bar
+  EXPECT_TRUE(wrong.region_seen_through);
+  EXPECT_GE(wrong.region_through, SeeThroughSetting().min_region_through);
+  EXPECT_GE(wrong.region_through, SeeThroughSetting().region_through_share * wrong.region_rays);
+  EXPECT_GT(wrong.region_at.x(), 0.08);  // on the extension, beyond the part's plate
+  EXPECT_LT(wrong.region_at.x(), 0.08 + 0.06 + SeeThroughSetting().region_m);
+  // The pose it stands for is no candidate, and the verdict says where the rays went through.
+  Score score;
+  score.region_seen_through = wrong.region_seen_through;
+  EXPECT_FALSE(score.allowed());
+  VerdictInput in;
+  in.rays = true;
+  in.score.coverage = 1.0, in.score.inliers = in.score.region = 100;
+  in.score.region_seen_through = true, in.score.region_through = 12, in.score.region_rays = 14;
+  in.region_at_part = Vec3(0.1, 0.0, 0.014);
+  EXPECT_NE(verdict_reason(in).find("saw through the best match around (100, 0, 14) mm"), std::string::npos)
+      << verdict_reason(in);
+}
+
 TEST(LocalizeStages, TheRaysReachOnlyTheSideOfThePartTheLiDARFaces) {
   // Seen from the -y side only: the samples on faces turned towards the LiDAR are reached, those turned away
   // never are; of what the rays reached, nearly all is seen at the true pose (what one short pass is judged
