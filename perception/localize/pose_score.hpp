@@ -44,14 +44,12 @@ struct Score {
   int ray_count = 0, through_count = 0;  ///< with rays: those crossing the model's box, and through it
   double max_see_through = 0.15;
   /// With rays: the region of the model most rays went through (SeeThrough::region_*), and whether they say
-  /// the part is not there
+  /// the part is not there (the verdict's, not the candidates' test: which pose is best stays the score's)
   int region_through = 0, region_rays = 0;
   Vec3 region_at = Vec3::Zero();
   bool region_seen_through = false;
   /// Whether the scan leaves room for the part here: the table not seen under it, no ray through it.
-  bool allowed() const {
-    return free_space <= max_free && see_through <= max_see_through && !region_seen_through;
-  }
+  bool allowed() const { return free_space <= max_free && see_through <= max_see_through; }
   /// Evidence for the pose: scan points it explains times the share of its visible surface the scan
   /// confirms, discounted by the table seen where it would stand.
   double support() const { return inliers * coverage * std::max(0.0, 1.0 - free_space / max_free); }

@@ -124,16 +124,6 @@ std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
                   100 * in.see_through_share);
     return buf;
   }
-  if (in.rays && best.region_seen_through) {
-    const Vec3& c = in.region_at_part;
-    std::snprintf(
-        buf, sizeof buf,
-        "the LiDAR saw through the best match around (%.0f, %.0f, %.0f) mm of the part: %d of the %d "
-        "rays that met it there reach points behind its surface: a different part, or not where "
-        "the match puts it",
-        1e3 * c.x(), 1e3 * c.y(), 1e3 * c.z(), best.region_through, best.region_rays);
-    return buf;
-  }
   if (in.rays && in.reached_coverage >= 0.0) {
     // What the sweep's rays reached of the model is what it could have seen.
     if (in.reached_coverage < s.min_reached_coverage || best.coverage < s.min_coverage_with_rays) {
@@ -186,6 +176,18 @@ std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
                   "than their noise explains; tolerance %.1f mm): the LiDAR's mount is off (calibrate it: "
                   "weldtwin calibrate), the part moved during the sweep, or it differs from its CAD",
                   1e3 * in.pass_apart_m, 1e3 * in.pass_excess_m, 1e3 * tol);
+    return buf;
+  }
+  // After the passes: a mount that is off also leaves rays through parts of the model, and the passes say
+  // what to do about it.
+  if (in.rays && best.region_seen_through) {
+    const Vec3& c = in.region_at_part;
+    std::snprintf(
+        buf, sizeof buf,
+        "the LiDAR saw through the best match around (%.0f, %.0f, %.0f) mm of the part: %d of the %d "
+        "rays that met it there reach points behind its surface: a different part, or not where "
+        "the match puts it",
+        1e3 * c.x(), 1e3 * c.y(), 1e3 * c.z(), best.region_through, best.region_rays);
     return buf;
   }
   if (in.ambiguity >= s.ambiguity_ratio) return "ambiguous: a different pose fits almost as well";
