@@ -9,10 +9,10 @@
 namespace weldtwin {
 
 void look_with_rays(const RefineInput& in, Candidate& c, const PoseScoreSetting& score,
-                    const SeeThroughSetting& see_through) {
+                    const SeeThroughSetting& see_through, const RayMatchSetting& edges) {
   // None may go through the part, and what they reached of it must be seen.
   const SeeThrough rays =
-      rays_through_model(in.scene, in.scan_base, in.viewpoints_base, in.model, c.P, see_through);
+      rays_through_model(in.scene, in.scan_base, in.viewpoints_base, in.model, c.P, see_through, edges);
   c.score.see_through = rays.share();
   c.score.ray_count = rays.rays;
   c.score.through_count = rays.through;
@@ -32,7 +32,7 @@ Candidate refine_with_rays(const RefineInput& in, const Candidate& c, const Plan
               static_cast<size_t>(icp.fine_points));
   const IcpResult f = planar_icp(near, in.scene, in.model, c.P, icp.fine_iterations, true, icp);
   Candidate out{f.P, f, score_pose(in.scene, in.footprint, in.model, f.P, score)};
-  look_with_rays(in, out, score, see_through);
+  look_with_rays(in, out, score, see_through, icp.rays);
   return out;
 }
 

@@ -50,6 +50,6 @@ Candidate refine_with_rays(const RefineInput& in, const Candidate& c, const Plan
 /// What the rays say of a candidate: the share of them that go through it, and what they reached of it that
 /// the scan shows (Candidate::rays_looked).
 void look_with_rays(const RefineInput& in, Candidate& c, const PoseScoreSetting& score,
-                    const SeeThroughSetting& see_through);
+                    const SeeThroughSetting& see_through, const RayMatchSetting& edges);
 
 }  // namespace weldtwin

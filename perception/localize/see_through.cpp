@@ -36,7 +36,7 @@ long long region_key(const Vec3& p, double region_m) {
 
 SeeThrough rays_through_model(const ScenePoints& scene, const std::vector<Vec3>& scan_base,
                               const std::vector<Vec3>& viewpoints_base, const PartModel& model, const Iso3& P,
-                              const SeeThroughSetting& s) {
+                              const SeeThroughSetting& s, const RayMatchSetting& edges) {
   SeeThrough out;
   if (!model.rays || scene.ray_points.empty() || viewpoints_base.size() != scan_base.size()) return out;
   const Iso3 T = P * scene.T_table_base;  // base frame -> part frame
@@ -71,7 +71,7 @@ SeeThrough rays_through_model(const ScenePoints& scene, const std::vector<Vec3>&
     ++region.met;
     if (t < range - behind) {
       ++out.through;
-      if (!ray_near_depth_edge(model, o, d, t, range, s.edges)) {
+      if (!ray_near_depth_edge(model, o, d, t, range, edges)) {
         ++region.through;
         region.at =
             s.region_m * (hit / s.region_m).array().floor().matrix() + Vec3::Constant(0.5 * s.region_m);

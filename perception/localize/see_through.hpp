@@ -42,7 +42,6 @@ struct SeeThroughSetting {
   double region_m = 0.025;
   int min_region_through = 10;
   double region_through_share = 0.5;
-  RayMatchSetting edges;  ///< which rays pass near a depth edge of the model
 };
 
 struct SeeThrough {
@@ -60,9 +59,10 @@ struct SeeThrough {
 };
 
 /// The rays of `scene.ray_points` (points `scan_base`, viewpoints `viewpoints_base`) against the model at
-/// pose P (table frame -> part frame).
+/// pose P (table frame -> part frame); `edges` says which rays pass near a depth edge of the model (the fit's
+/// own setting).
 SeeThrough rays_through_model(const ScenePoints& scene, const std::vector<Vec3>& scan_base,
                               const std::vector<Vec3>& viewpoints_base, const PartModel& model, const Iso3& P,
-                              const SeeThroughSetting& setting = {});
+                              const SeeThroughSetting& setting = {}, const RayMatchSetting& edges = {});
 
 }  // namespace weldtwin
