@@ -60,6 +60,11 @@ nlohmann::json pose_to_json(const PoseEstimate& pose) {
   }
   out["beyond_share"] = pose.beyond_share;
   out["beyond_extent_mm"] = 1e3 * pose.beyond_extent_m;
+  out["beyond_edge"] = {{"share", pose.beyond_line_share},
+                        {"edge_length_mm", 1e3 * pose.beyond_line_length_m},
+                        {"at_mm",
+                         {1e3 * pose.beyond_line_at_part.x(), 1e3 * pose.beyond_line_at_part.y(),
+                          1e3 * pose.beyond_line_at_part.z()}}};
   if (!pose.rays_cast) {
     out["margin_llr"] = std::isfinite(pose.margin_llr) ? nlohmann::json(pose.margin_llr) : nlohmann::json();
     out["rival_offset_mm"] = 1e3 * pose.rival_offset_m;

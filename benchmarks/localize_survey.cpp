@@ -229,12 +229,13 @@ int main(int argc, char** argv) {
             pose_error(truth.part, ours.T_base_part, truth.T_base_part, z_symmetry_order(mesh));
         std::printf(
             "sample %-26s %s: seam %.3f mm, rotation %.3f deg, %.2f s [cov %.2f fit %.2f free %.2f amb %.2f "
-            "wall %.2f noise %.2f mm bound %.2f mm side %.1f beyond %.3f ext %.0f thru %.4f] %s\n",
+            "wall %.2f noise %.2f mm bound %.2f mm side %.1f beyond %.3f ext %.0f line %.2f of %.0f thru "
+            "%.4f] %s\n",
             dir.filename().c_str(), ours.found ? "found  " : "refused", 1e3 * e.seam_max_m,
             rad2deg(e.rotation_rad), ours.seconds, ours.coverage, ours.fitness, ours.free_space,
             ours.ambiguity, ours.wall_residual, 1e3 * ours.noise_m, 1e3 * ours.seam_error_bound_m,
-            ours.margin_llr, ours.beyond_share, 1e3 * ours.beyond_extent_m, ours.see_through_share,
-            ours.reason.c_str());
+            ours.margin_llr, ours.beyond_share, 1e3 * ours.beyond_extent_m, ours.beyond_line_share,
+            1e3 * ours.beyond_line_length_m, ours.see_through_share, ours.reason.c_str());
         if (!no_paper) {
           const PoseEstimate paper = localize_paper(cloud, mesh);
           const PoseError pe =
@@ -396,7 +397,7 @@ int main(int argc, char** argv) {
           stderr,
           " [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f noise %.2f bound %.2f llr %.1f rllr %.1f wsig "
           "%.2f bias %.2f beyond %.3f ext %.0f thru %.4f reached %.2f tilt %.3f deg z %.2f mm edge %.2f mm "
-          "%.2f deg region %d/%d]",
+          "%.2f deg region %d/%d line %.2f of %.0f at %.0f %.0f %.0f]",
           t.ours.coverage, t.ours.fitness, t.ours.free_space, t.ours.ambiguity, t.ours.wall_residual,
           1e3 * t.ours.noise_m, 1e3 * t.ours.seam_error_bound_m, t.ours.margin_llr,
           t.ours.residual_margin_llr, 1e3 * t.ours.wall_sigma_m, 1e3 * t.ours.wall_side_bias_m,
@@ -404,17 +405,19 @@ int main(int argc, char** argv) {
           t.ours.reached_coverage,
           rad2deg(std::acos(std::min(1.0, t.ours.table_plane.head<3>().normalized().z()))),
           -1e3 * t.ours.table_plane.w() / std::max(1e-9, t.ours.table_plane.head<3>().norm()),
-          1e3 * t.ours.edge_shift_m, rad2deg(t.ours.edge_turn_rad), t.ours.region_through,
-          t.ours.region_rays);
+          1e3 * t.ours.edge_shift_m, rad2deg(t.ours.edge_turn_rad), t.ours.region_through, t.ours.region_rays,
+          t.ours.beyond_line_share, 1e3 * t.ours.beyond_line_length_m, 1e3 * t.ours.beyond_line_at_part.x(),
+          1e3 * t.ours.beyond_line_at_part.y(), 1e3 * t.ours.beyond_line_at_part.z());
       for (const auto& [what, p] : t.impostors)
         std::fprintf(stderr,
                      " | %s %s [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f beyond %.3f ext %.0f thru "
                      "%.4f reached "
-                     "%.2f bound %.2f region %d/%d] (%s)",
+                     "%.2f bound %.2f region %d/%d line %.2f of %.0f] (%s)",
                      p.found ? "FALSE ACCEPT" : "refused", what.c_str(), p.coverage, p.fitness, p.free_space,
                      p.ambiguity, p.wall_residual, p.beyond_share, 1e3 * p.beyond_extent_m,
                      p.see_through_share, p.reached_coverage, 1e3 * p.seam_error_bound_m, p.region_through,
-                     p.region_rays, p.reason.substr(0, 60).c_str());
+                     p.region_rays, p.beyond_line_share, 1e3 * p.beyond_line_length_m,
+                     p.reason.substr(0, 60).c_str());
       std::fprintf(stderr, "\n");
     });
 

@@ -105,9 +105,12 @@ int check_real_scans(const std::string& dir, const std::string& part_spec,
   for (const fs::path& scan : scans) {
     const std::vector<Vec3> cloud = read_cloud(scan.string());
     const PoseEstimate ours = localize(cloud, prepared, localize_setting_for(part), seams);
-    std::printf("real %s (%zu points): ours %s in %.2f s, seam error bound %.2f mm%s%s\n",
-                scan.filename().c_str(), cloud.size(), ours.found ? "found" : "refused", ours.seconds,
-                1e3 * ours.seam_error_bound_m, ours.found ? "" : ": ", ours.reason.c_str());
+    std::printf(
+        "real %s (%zu points): ours %s in %.2f s, seam error bound %.2f mm [beyond edges along %.0f mm, "
+        "one edge's %.2f of %.0f mm]%s%s\n",
+        scan.filename().c_str(), cloud.size(), ours.found ? "found" : "refused", ours.seconds,
+        1e3 * ours.seam_error_bound_m, 1e3 * ours.beyond_extent_m, ours.beyond_line_share,
+        1e3 * ours.beyond_line_length_m, ours.found ? "" : ": ", ours.reason.c_str());
     print_against_placement("ours", ours.T_base_part, nominal);
     // Split-half repeatability: interleaved halves, each localized alone.
     std::vector<Vec3> half[2];

@@ -294,6 +294,9 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   out.region_at_part = lift.inverse() * best.score.region_at;
   out.reached_coverage = best.score.reached_coverage;
   out.beyond_at_part = lift.inverse() * extent.centre;
+  out.beyond_line_share = extent.line_share;
+  out.beyond_line_length_m = extent.line_length_m;
+  out.beyond_line_at_part = lift.inverse() * extent.line_centre;
   stage("verdict");
   VerdictInput verdict;
   verdict.score = best.score;
@@ -320,6 +323,9 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   verdict.pass_excess_m = out.pass_excess_m;
   verdict.pass_apart_m = out.pass_apart_m;
   verdict.beyond_at_part = out.beyond_at_part;
+  verdict.beyond_line_share = out.beyond_line_share;
+  verdict.beyond_line_length_m = out.beyond_line_length_m;
+  verdict.beyond_line_at_part = out.beyond_line_at_part;
   const std::string reason = verdict_reason(verdict, s.verdict);
   out.found = reason.empty();
   return finish(reason);

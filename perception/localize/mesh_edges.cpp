@@ -31,6 +31,8 @@ std::vector<MeshEdge> mesh_edges(const Mesh& mesh) {
       MeshEdge& e = edges[{std::min(id[vi], id[vj]), std::max(id[vi], id[vj])}];
       e.a = vi;
       e.b = vj;
+      e.id_a = id[vi];
+      e.id_b = id[vj];
       e.faces.push_back(fi);
       e.normals.push_back(n.normalized());
     }

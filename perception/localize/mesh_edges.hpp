@@ -11,7 +11,8 @@
 namespace weldtwin {
 
 struct MeshEdge {
-  size_t a = 0, b = 0;  ///< the edge's ends (indices into the mesh's vertices), as the last face saw them
+  size_t a = 0, b = 0;     ///< the edge's ends (indices into the mesh's vertices), as the last face saw them
+  int id_a = 0, id_b = 0;  ///< ... and their merged ids (the ends of every edge at one position share one)
   std::vector<size_t> faces;  ///< faces using the edge (face indices), in the mesh's order
   std::vector<Vec3> normals;  ///< ... and their unit normals
 };

@@ -43,7 +43,10 @@ struct PartModelSetting {
   std::vector<double> beyond_m{0.006, 0.010, 0.015, 0.020};
   double beyond_step_m = 0.002;         ///< ... every this far along the edge [m]
   double beyond_clearance_share = 0.7;  ///< ... where the part is at least this share of that away
-  ClosestGridSetting closest;           ///< the surface fit's nearest points (closest_grid.hpp)
+  /// A wall continued up past a top edge into open air (nothing of the part above) is judged edge by edge
+  /// (part_extent.hpp): continued at least this steeply (the z of its unit direction) [share]
+  double beyond_up_min_z = 0.9;
+  ClosestGridSetting closest;  ///< the surface fit's nearest points (closest_grid.hpp)
 };
 
 struct PartModel {
@@ -71,6 +74,10 @@ struct PartModel {
   std::vector<Eigen::Vector2d> wall_side_shifts;
   std::vector<Vec3> beyond;        ///< the faces continued past their convex edges, into free air
   std::vector<float> beyond_dist;  ///< ... and how far past the edge each sample is [m]
+  /// ... and, for a wall continued up into open air, which wall past which straight edge: 2 x the edge's
+  /// line + its side (one edge of the part may be several edges of its mesh; -1: not such a wall) ...
+  std::vector<int> beyond_line;
+  std::vector<float> beyond_line_length;  ///< ... and each such line's length [m]
 
   /// The sample nearest p, or -1 outside the lookup grid or farther than its margin (lookup_margin_m) from
   /// every sample. Answers come from a lazily filled grid (each slot holds the sample nearest its centre):

@@ -20,9 +20,9 @@ namespace weldtwin {
 namespace {
 
 using Magic = char[8];
-constexpr Magic kMagic = {'W', 'T', 'P', 'A', 'R', 'T', '0', '1'};        // bump the digits with the layout
+constexpr Magic kMagic = {'W', 'T', 'P', 'A', 'R', 'T', '0', '2'};        // bump the digits with the layout
 constexpr Magic kLookupMagic = {'W', 'T', 'L', 'O', 'O', 'K', '0', '2'};  // ... of either file
-constexpr uint64_t kFormat = 1;                                           // ... and this: it joins the key
+constexpr uint64_t kFormat = 2;                                           // ... and this: it joins the key
 constexpr size_t kHeaderBytes = sizeof(Magic) + 2 * sizeof(uint64_t);
 constexpr uintmax_t kMaxFileBytes = uintmax_t{1} << 32;  // a larger file is not one of ours
 
@@ -203,6 +203,8 @@ std::vector<char> payload(const PartModel& m, const Mesh& rest) {
   put_vectors(w, m.wall_side_shifts);
   put_vectors(w, m.beyond);
   w.put_all(m.beyond_dist);
+  w.put_all(m.beyond_line);
+  w.put_all(m.beyond_line_length);
   return w.bytes();
 }
 
@@ -244,9 +246,12 @@ bool read_payload(Reader& r, PartModel& m, Mesh& rest) {
     m.outline[i] = {Eigen::Vector2d(o[0], o[1]), Eigen::Vector2d(o[2], o[3]), o[4]};
   }
   if (!r.get(m.thin_wall_m) || !get_vectors(r, m.wall_side_shifts) || !get_vectors(r, m.beyond) ||
-      !r.get_all(m.beyond_dist))
+      !r.get_all(m.beyond_dist) || !r.get_all(m.beyond_line) || !r.get_all(m.beyond_line_length))
     return false;
-  return m.beyond_dist.size() == m.beyond.size() && r.done();
+  if (m.beyond_dist.size() != m.beyond.size() || m.beyond_line.size() != m.beyond.size()) return false;
+  for (int line : m.beyond_line)
+    if (line < -1 || line >= static_cast<int64_t>(m.beyond_line_length.size())) return false;
+  return r.done();
 }
 
 // Removes the oldest files of `dir` ending in `ext` beyond `keep` (of this program's other builds, or other
@@ -280,7 +285,7 @@ uint64_t part_model_key(const Mesh& mesh, double min_z, const PartModelSetting& 
   // Every field of the setting (a field added to PartModelSetting must join here: the size check below
   // fails until it does).
   static_assert(sizeof(PartModelSetting) ==
-                    19 * sizeof(double) + 8 + sizeof(std::vector<double>) + sizeof(ClosestGridSetting),
+                    20 * sizeof(double) + 8 + sizeof(std::vector<double>) + sizeof(ClosestGridSetting),
                 "PartModelSetting changed: add its new field to the key");
   static_assert(sizeof(ClosestGridSetting) == 3 * sizeof(double) + sizeof(size_t),
                 "ClosestGridSetting changed: add its new field to the key");
@@ -303,6 +308,7 @@ uint64_t part_model_key(const Mesh& mesh, double min_z, const PartModelSetting& 
                    s.wall_direction_gap_deg,
                    s.beyond_step_m,
                    s.beyond_clearance_share,
+                   s.beyond_up_min_z,
                    s.closest.cell_m,
                    s.closest.margin_m,
                    s.closest.far_m})

@@ -148,6 +148,16 @@ std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
                   1e3 * in.beyond_extent_m, 1e3 * c.x(), 1e3 * c.y(), 1e3 * c.z());
     return buf;
   }
+  if (in.beyond_line_share > s.max_beyond_line_share) {
+    const Vec3& c = in.beyond_line_at_part;
+    std::snprintf(
+        buf, sizeof buf,
+        "the scan goes on above one of the model's top edges (%.0f mm long) over %.0f %% of it, "
+        "around (%.0f, %.0f, %.0f) mm of the part: a different part, or the part is taller than its "
+        "CAD there: check the part and its model",
+        1e3 * in.beyond_line_length_m, 100 * in.beyond_line_share, 1e3 * c.x(), 1e3 * c.y(), 1e3 * c.z());
+    return buf;
+  }
   // With rays, the walls' residual against the table's noise tells a different shape; without them the
   // scan's own surfaces (neighbourhood centroids, where the noise averages out) against the model's.
   if (in.rays && best.wall_residual > s.max_wall_residual)

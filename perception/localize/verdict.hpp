@@ -38,6 +38,10 @@ struct VerdictSetting {
   /// The scan may go on past the model's edges along at most this much (a clamp's pad and arm over the
   /// part's edge make 20-45 mm; a part larger than its model, a whole edge) [m]
   double max_beyond_extent_m = 0.07;
+  /// ... and up past one straight top edge into open air along at most this share of the wall continued
+  /// past it (a clamp's arm crosses a stretch of an edge; a part taller than its model, the whole edge
+  /// seen) [share]
+  double max_beyond_line_share = 0.6;
   /// With rays, coverage is judged against what the sweep's rays reached of the model (one short pass reaches
   /// a part of it): at least this share of the reached samples seen ...
   double min_reached_coverage = 0.7;
@@ -109,6 +113,11 @@ struct VerdictInput {
   double beyond_extent_m = 0.0;  ///< the longest stretch of the model's faces continued past its edges with
                                  ///< the scan on them [m] ...
   Vec3 beyond_at_part = Vec3::Zero();  ///< ... and its centre (part frame) [m]
+  /// The share of one face continued past one straight edge with the scan on it (the most of any edge),
+  /// that edge's length and where (part frame) [m]
+  double beyond_line_share = 0.0;
+  double beyond_line_length_m = 0.0;
+  Vec3 beyond_line_at_part = Vec3::Zero();
   /// With viewpoints: how much farther apart than their 95 % bound the two passes that disagree most put
   /// the seams, each fitted alone [m] (pass_agreement.hpp) ...
   double pass_excess_m = 0.0;

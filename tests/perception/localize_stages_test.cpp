@@ -383,6 +383,72 @@ TEST(LocalizeStages, ThePartLargerThanItsModelShowsPastTheModelsEdges) {
   EXPECT_NE(verdict_reason(in).find("past the model's edges"), std::string::npos) << verdict_reason(in);
 }
 
+TEST(LocalizeStages, AnEdgeCutInTwoByTheMeshIsOneEdgeOfThePart) {
+  // A 100 x 60 x 40 mm box whose front top edge is two mesh edges (a vertex at its middle).
+  Mesh box;
+  const double X = 0.1, Y = 0.06, Z = 0.04;
+  for (int k = 0; k < 8; ++k) box.vertices.emplace_back(k & 1 ? X : 0.0, k & 2 ? Y : 0.0, k & 4 ? Z : 0.0);
+  box.vertices.emplace_back(0.5 * X, 0.0, Z);    // 8: the middle of the front top edge (4-5)
+  box.faces = {{0, 2, 1}, {1, 2, 3},             // bottom
+               {4, 8, 6}, {8, 5, 7}, {8, 7, 6},  // top, fanned from the middle vertex
+               {0, 1, 8}, {1, 5, 8}, {0, 8, 4},  // front (y = 0)
+               {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+  PartModel model;
+  build_part_model(box, 0.0, PartModelSetting(), 0, model);
+  int long_edges = 0, half_edges = 0;
+  for (float length : model.beyond_line_length) {
+    long_edges += std::abs(length - X) < 1e-6;
+    half_edges += std::abs(length - 0.5 * X) < 1e-6;
+  }
+  EXPECT_EQ(long_edges, 8);  // four 100 mm edges, two faces continued past each
+  EXPECT_EQ(half_edges, 0);
+  EXPECT_EQ(model.beyond_line_length.size(), 24u);  // the box's 12 edges
+}
+
+TEST(LocalizeStages, AWholeEdgeWithTheScanGoingOnPastItSaysThePartIsTallerThanItsModel) {
+  // The model's continuations are kept per straight edge and side: the plate's 160 mm edges at its top and
+  // its bottom, the tube's 50.8 mm outer edges at its top and its foot (the mesh's tube stands on the plate
+  // with a face of its own), each with its two faces continued past it.
+  Scene sc = tube_scene(0.0015, 6);
+  Prepared p = prepare(sc);
+  int plate_edges = 0, tube_edges = 0;
+  for (float length : p.model.beyond_line_length) {
+    plate_edges += std::abs(length - 0.160) < 1e-4;
+    tube_edges += std::abs(length - 0.0508) < 1e-4;
+  }
+  EXPECT_EQ(plate_edges, 16);
+  EXPECT_EQ(tube_edges, 16);
+  const PartExtent right = scan_beyond_model(p.scene, p.model, truth_P(p, sc));
+  EXPECT_LT(right.line_share, 0.3);
+  // The same place scanned with the tube 40 mm taller: its walls go on above the model's top edges, along
+  // the whole of each edge seen.
+  Mesh taller = sc.mesh;
+  for (Vec3& v : taller.vertices)
+    if (v.z() > 0.05) v.z() += 0.04;
+  sc.cloud = one_sided_scan(taller, sc.truth, -0.35, 0.0015, 6);
+  Prepared q = prepare(sc);
+  const PartExtent more = scan_beyond_model(q.scene, p.model, truth_P(q, sc));
+  EXPECT_GT(more.line_share, 0.8);
+  EXPECT_NEAR(more.line_length_m, 0.0508, 1e-4);
+  EXPECT_GT(more.line_centre.z(), 0.108 + 0.008);      // above the model's top (resting frame)
+  EXPECT_LT(more.line_centre.head<2>().norm(), 0.04);  // over the tube, not the plate
+  VerdictInput in;
+  in.score.coverage = 1.0, in.score.inliers = in.score.region = 100;
+  in.margin_llr = 100.0;
+  in.seam_error_bound_m = 0.0005;
+  in.yaw_bound_rad = deg2rad(0.1);
+  in.beyond_line_share = 0.9;
+  in.beyond_line_length_m = 0.0508;
+  in.beyond_line_at_part = Vec3(0.0, -0.0254, 0.12);
+  EXPECT_NE(
+      verdict_reason(in).find("above one of the model's top edges (51 mm long) over 90 % of it, around (0, "
+                              "-25, 120) mm"),
+      std::string::npos)
+      << verdict_reason(in);
+  in.beyond_line_share = 0.3;  // a clamp over a stretch of an edge
+  EXPECT_EQ(verdict_reason(in), "");
+}
+
 // The tube scene seen from the -y side with every point's viewpoint: the cloud, the part model, the scene
 // points with their rays, and the true pose (table frame -> part frame).
 struct RayScene {

@@ -102,6 +102,8 @@ TEST(PartModelFile, AModelReadBackIsTheModelBuilt) {
   EXPECT_TRUE(same(read.wall_side_shifts, built.wall_side_shifts));
   EXPECT_TRUE(same(read.beyond, built.beyond));
   EXPECT_TRUE(same(read.beyond_dist, built.beyond_dist));
+  EXPECT_TRUE(same(read.beyond_line, built.beyond_line));
+  EXPECT_TRUE(same(read.beyond_line_length, built.beyond_line_length));
   EXPECT_EQ(read.cx, built.cx);
   EXPECT_EQ(read.cy, built.cy);
   EXPECT_EQ(read.cz, built.cz);
@@ -136,7 +138,7 @@ TEST(PartModelFile, TheKeyTellsApartEverythingTheModelIsMadeOf) {
   std::swap(turned.faces[0][1], turned.faces[0][2]);  // one face wound the other way
   EXPECT_NE(part_model_key(turned, 0.0, base), key);
   EXPECT_NE(part_model_key(mesh, 1e-9, base), key);  // lifted otherwise
-  std::vector<PartModelSetting> changed(9, base);
+  std::vector<PartModelSetting> changed(10, base);
   changed[0].spacing_m = 0.0021;
   changed[1].edge_reach_m = 0.04;
   changed[2].lookup_margin_m = 0.016;
@@ -146,6 +148,7 @@ TEST(PartModelFile, TheKeyTellsApartEverythingTheModelIsMadeOf) {
   changed[6].closest.cell_m = 0.003;
   changed[7].closest.max_cells = 1 << 20;
   changed[8].beyond_clearance_share = 0.6;
+  changed[9].beyond_up_min_z = 0.8;
   for (size_t i = 0; i < changed.size(); ++i) EXPECT_NE(part_model_key(mesh, 0.0, changed[i]), key) << i;
 }
 
