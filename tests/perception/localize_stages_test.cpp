@@ -383,6 +383,16 @@ TEST(LocalizeStages, ThePartLargerThanItsModelShowsPastTheModelsEdges) {
   EXPECT_NE(verdict_reason(in).find("past the model's edges"), std::string::npos) << verdict_reason(in);
 }
 
+// Figures the verdict accepts: the whole model covered, every point explained, no rival, tight bounds.
+VerdictInput passing_figures() {
+  VerdictInput in;
+  in.score.coverage = 1.0, in.score.inliers = in.score.region = 100;
+  in.margin_llr = 100.0;
+  in.seam_error_bound_m = 0.0005;
+  in.yaw_bound_rad = deg2rad(0.1);
+  return in;
+}
+
 TEST(LocalizeStages, AnEdgeCutInTwoByTheMeshIsOneEdgeOfThePart) {
   // A 100 x 60 x 40 mm box whose front top edge is two mesh edges (a vertex at its middle).
   Mesh box;
@@ -432,11 +442,7 @@ TEST(LocalizeStages, AWholeEdgeWithTheScanGoingOnPastItSaysThePartIsTallerThanIt
   EXPECT_NEAR(more.line_length_m, 0.0508, 1e-4);
   EXPECT_GT(more.line_centre.z(), 0.108 + 0.008);      // above the model's top (resting frame)
   EXPECT_LT(more.line_centre.head<2>().norm(), 0.04);  // over the tube, not the plate
-  VerdictInput in;
-  in.score.coverage = 1.0, in.score.inliers = in.score.region = 100;
-  in.margin_llr = 100.0;
-  in.seam_error_bound_m = 0.0005;
-  in.yaw_bound_rad = deg2rad(0.1);
+  VerdictInput in = passing_figures();
   in.beyond_line_share = 0.9;
   in.beyond_line_length_m = 0.0508;
   in.beyond_line_at_part = Vec3(0.0, -0.0254, 0.12);
@@ -628,11 +634,7 @@ TEST(LocalizeStages, APoseThatOnlyPutsTheSeamsInPlaceIsARival) {
 TEST(LocalizeStages, WithoutViewpointsWallsThinAgainstTheNoiseAreRefused) {
   // A fit whose figures would pass: refused without viewpoints when the range noise is more than half the
   // walls' thickness, kept when it is less, and never refused for it with viewpoints.
-  VerdictInput in;
-  in.score.coverage = 1.0, in.score.inliers = in.score.region = 100;
-  in.margin_llr = 100.0;
-  in.seam_error_bound_m = 0.0005;
-  in.yaw_bound_rad = deg2rad(0.1);
+  VerdictInput in = passing_figures();
   in.thin_wall_m = 0.0032;
   in.noise_m = 0.0023;
   EXPECT_NE(verdict_reason(in).find("range noise"), std::string::npos) << verdict_reason(in);
