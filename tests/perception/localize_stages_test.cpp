@@ -415,6 +415,32 @@ TEST(LocalizeStages, AnEdgeCutInTwoByTheMeshIsOneEdgeOfThePart) {
   EXPECT_EQ(model.beyond_line_length.size(), 24u);  // the box's 12 edges
 }
 
+TEST(LocalizeStages, OnlyWallsContinuedUpIntoOpenAirAreJudgedEdgeByEdge) {
+  // The tube tee lies on the table with its tubes open at their ends. Its end faces continued across the
+  // tubes' mouths are continuations all the same (a clamp standing against an end fills them), but they run
+  // under the tube's top wall: not judged edge by edge. Its walls continued up past its top edges are.
+  PartModel tee;
+  build_part_model(load_mesh(PartSpec::load(test::repo("scenes/parts/tube_tee.yaml")).mesh_path), 0.0,
+                   PartModelSetting(), 0, tee);
+  int mouth = 0, mouth_judged = 0, above = 0, above_judged = 0;
+  for (size_t i = 0; i < tee.beyond.size(); ++i) {
+    const Vec3& q = tee.beyond[i];
+    const bool judged = tee.beyond_line[i] >= 0;
+    if (std::abs(std::abs(q.x()) - 0.15) < 1e-6 && std::abs(q.y()) < 0.02 && q.z() < 0.045) {
+      ++mouth;  // across the main tube's mouth
+      mouth_judged += judged;
+    }
+    if (q.z() > 0.0508 + 0.005) {
+      ++above;  // over the tube's top
+      above_judged += judged;
+    }
+  }
+  EXPECT_GT(mouth, 20);
+  EXPECT_EQ(mouth_judged, 0);
+  EXPECT_GT(above, 100);
+  EXPECT_GT(above_judged, above / 2);
+}
+
 TEST(LocalizeStages, AWholeEdgeWithTheScanGoingOnPastItSaysThePartIsTallerThanItsModel) {
   // The model's continuations are kept per straight edge and side: the plate's 160 mm edges at its top and
   // its bottom, the tube's 50.8 mm outer edges at its top and its foot (the mesh's tube stands on the plate
