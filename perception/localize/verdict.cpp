@@ -150,12 +150,12 @@ std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
   }
   if (in.beyond_line_share > s.max_beyond_line_share) {
     const Vec3& c = in.beyond_line_at_part;
-    std::snprintf(
-        buf, sizeof buf,
-        "the scan goes on above one of the model's top edges (%.0f mm long) over %.0f %% of it, "
-        "around (%.0f, %.0f, %.0f) mm of the part: a different part, the part taller than its CAD "
-        "there, or a clamp over that edge: check the part, its model and the clamps",
-        1e3 * in.beyond_line_length_m, 100 * in.beyond_line_share, 1e3 * c.x(), 1e3 * c.y(), 1e3 * c.z());
+    std::snprintf(buf, sizeof buf,
+                  "the scan goes on above one of the model's top edges (%.0f mm long) over %.0f %% of it, "
+                  "around (%.0f, %.0f, %.0f) mm of the part: a different part, the part taller than its CAD "
+                  "there, or a clamp over that edge: check the part, its model and the clamps",
+                  1e3 * in.beyond_line_length_m, 100 * in.beyond_line_share, 1e3 * c.x(), 1e3 * c.y(),
+                  1e3 * c.z());
     return buf;
   }
   // With rays, the walls' residual against the table's noise tells a different shape; without them the
