@@ -22,7 +22,9 @@ ap.add_argument("--seed-bags")
 ap.add_argument("--real")
 args = ap.parse_args()
 out = args.out
-for d in ("cloud", "mesh", "part_spec", "cell_spec", "scan_log", "pose_plan", "ros_bag", "rplidar", "aubo_messages"):
+# part_file starts from nothing: its bodies are made by weldtwin itself (a kept prepared part), not here.
+for d in ("cloud", "mesh", "part_spec", "cell_spec", "scan_log", "pose_plan", "ros_bag", "rplidar", "aubo_messages",
+          "part_file"):
     os.makedirs(os.path.join(out, d), exist_ok=True)
 
 
