@@ -109,8 +109,8 @@ struct PoseEstimate {
   double beyond_share = 0.0;
   double beyond_extent_m = 0.0;        ///< the longest stretch of them [m] ...
   Vec3 beyond_at_part = Vec3::Zero();  ///< ... and its centre
-  /// The one face continued past one straight edge the scan supports most (part_extent.hpp): the share of
-  /// it with scan points on it, the edge's length and where (part frame) [m]
+  /// The one wall continued up past one straight top edge into open air the scan supports most
+  /// (part_extent.hpp): the share of it with scan points on it, the edge's length and where (part frame) [m]
   double beyond_line_share = 0.0;
   double beyond_line_length_m = 0.0;
   Vec3 beyond_line_at_part = Vec3::Zero();

@@ -64,31 +64,36 @@ bool on_line(const Vec3& p, const ConvexEdge& line) {
   return (r - r.dot(d) * d).norm() < kOnLine;
 }
 
-// The straight lines the edges make: a mesh may cut one edge of the part into several. Each edge's line,
-// numbered from 0 (edges on one line and joined end to end).
-std::vector<int> edge_lines(const std::vector<ConvexEdge>& edges) {
+// The straight lines the edges make: a mesh may cut one edge of the part into several.
+struct EdgeLines {
+  std::vector<int> of_edge;   ///< each edge's line, numbered from 0 (edges on one line, joined end to end)
+  std::vector<size_t> first;  ///< each line's first edge (it names the line's two sides)
+};
+
+EdgeLines edge_lines(const std::vector<ConvexEdge>& edges) {
   std::map<int, std::vector<size_t>> at;  // the edges at each end
   for (size_t k = 0; k < edges.size(); ++k)
     for (int end : edges[k].ends) at[end].push_back(k);
-  std::vector<int> line(edges.size(), -1);
-  int lines = 0;
+  EdgeLines out;
+  out.of_edge.assign(edges.size(), -1);
   for (size_t seed = 0; seed < edges.size(); ++seed) {
-    if (line[seed] >= 0) continue;
-    line[seed] = lines;
+    if (out.of_edge[seed] >= 0) continue;
+    const int line = static_cast<int>(out.first.size());
+    out.first.push_back(seed);
+    out.of_edge[seed] = line;
     std::vector<size_t> todo{seed};
     while (!todo.empty()) {
       const size_t k = todo.back();
       todo.pop_back();
       for (int end : edges[k].ends)
         for (size_t j : at[end])
-          if (line[j] < 0 && on_line(edges[j].a, edges[seed]) && on_line(edges[j].b, edges[seed])) {
-            line[j] = lines;
+          if (out.of_edge[j] < 0 && on_line(edges[j].a, edges[seed]) && on_line(edges[j].b, edges[seed])) {
+            out.of_edge[j] = line;
             todo.push_back(j);
           }
     }
-    ++lines;
   }
-  return line;
+  return out;
 }
 
 }  // namespace
@@ -100,24 +105,18 @@ void beyond_edge_samples(const Mesh& rest, PartModel& model, const PartModelSett
   model.beyond_line.clear();
   model.beyond_line_length.clear();
   const std::vector<ConvexEdge> edges = convex_edges(rest, s);
-  const std::vector<int> line = edge_lines(edges);
-  // The first edge of each line names its sides: a face continued past an edge is one side of its line.
-  std::vector<int> first(edges.size(), -1);
-  for (size_t k = 0; k < edges.size(); ++k) {
-    const size_t l = static_cast<size_t>(line[k]);
-    if (first[l] < 0) first[l] = static_cast<int>(k);
-  }
-  int lines = 0;
-  for (int l : line) lines = std::max(lines, l + 1);
-  model.beyond_line_length.assign(2 * static_cast<size_t>(lines), 0.0f);
+  const EdgeLines lines = edge_lines(edges);
+  model.beyond_line_length.assign(2 * lines.first.size(), 0.0f);
   for (size_t k = 0; k < edges.size(); ++k) {
     const ConvexEdge& e = edges[k];
     const double len = (e.b - e.a).norm();
     const Vec3 along = (e.b - e.a) / len;
-    const ConvexEdge& named = edges[static_cast<size_t>(first[static_cast<size_t>(line[k])])];
+    const int line = lines.of_edge[k];
+    // A face continued past an edge is one side of its line, as the line's first edge names them.
+    const ConvexEdge& named = edges[lines.first[static_cast<size_t>(line)]];
     for (size_t side = 0; side < 2; ++side) {
       const Vec3& n = e.n[side];
-      const int group = 2 * line[k] + (n.dot(named.n[0]) >= n.dot(named.n[1]) ? 0 : 1);
+      const int group = 2 * line + (n.dot(named.n[0]) >= n.dot(named.n[1]) ? 0 : 1);
       model.beyond_line_length[static_cast<size_t>(group)] += static_cast<float>(len);
       const bool up = e.u[side].z() >= s.beyond_up_min_z;
       for (double t = 0.5 * s.beyond_step_m; t < len; t += s.beyond_step_m)

@@ -113,8 +113,8 @@ struct VerdictInput {
   double beyond_extent_m = 0.0;  ///< the longest stretch of the model's faces continued past its edges with
                                  ///< the scan on them [m] ...
   Vec3 beyond_at_part = Vec3::Zero();  ///< ... and its centre (part frame) [m]
-  /// The share of one face continued past one straight edge with the scan on it (the most of any edge),
-  /// that edge's length and where (part frame) [m]
+  /// The share of one wall continued up past one straight top edge into open air with the scan on it (the
+  /// most of any edge), that edge's length and where (part frame) [m]
   double beyond_line_share = 0.0;
   double beyond_line_length_m = 0.0;
   Vec3 beyond_line_at_part = Vec3::Zero();
