@@ -50,6 +50,12 @@ nlohmann::json pose_to_json(const PoseEstimate& pose) {
          {1e3 * pose.region_at_part.x(), 1e3 * pose.region_at_part.y(), 1e3 * pose.region_at_part.z()}}};
   }
   if (pose.rays_cast && pose.reached_coverage >= 0) out["reached_coverage"] = pose.reached_coverage;
+  if (pose.rays_cast)  // the scan's points on the walls in patches off the model's (wall_patches.hpp)
+    out["wall_patches_off"] = {{"share", pose.wall_patch_share},
+                               {"largest_at_mm",
+                                {1e3 * pose.wall_patch_at_part.x(), 1e3 * pose.wall_patch_at_part.y(),
+                                 1e3 * pose.wall_patch_at_part.z()}},
+                               {"largest_offset_mm", 1e3 * pose.wall_patch_offset_m}};
   if (pose.rays_cast)  // what the bound allows for mixed pixels at the model's depth edges
     out["depth_edge_bias_mm"] =
         std::isfinite(pose.edge_shift_m) ? nlohmann::json(1e3 * pose.edge_shift_m) : nlohmann::json();

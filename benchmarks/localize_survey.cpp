@@ -395,11 +395,12 @@ int main(int argc, char** argv) {
       }
       std::fprintf(
           stderr,
-          " [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f noise %.2f bound %.2f llr %.1f rllr %.1f wsig "
+          " [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f patch %.3f noise %.2f bound %.2f llr %.1f rllr "
+          "%.1f wsig "
           "%.2f bias %.2f beyond %.3f ext %.0f thru %.4f reached %.2f tilt %.3f deg z %.2f mm edge %.2f mm "
           "%.2f deg region %d/%d line %.2f of %.0f at %.0f %.0f %.0f]",
           t.ours.coverage, t.ours.fitness, t.ours.free_space, t.ours.ambiguity, t.ours.wall_residual,
-          1e3 * t.ours.noise_m, 1e3 * t.ours.seam_error_bound_m, t.ours.margin_llr,
+          t.ours.wall_patch_share, 1e3 * t.ours.noise_m, 1e3 * t.ours.seam_error_bound_m, t.ours.margin_llr,
           t.ours.residual_margin_llr, 1e3 * t.ours.wall_sigma_m, 1e3 * t.ours.wall_side_bias_m,
           t.ours.beyond_share, 1e3 * t.ours.beyond_extent_m, t.ours.see_through_share,
           t.ours.reached_coverage,
@@ -409,15 +410,15 @@ int main(int argc, char** argv) {
           t.ours.beyond_line_share, 1e3 * t.ours.beyond_line_length_m, 1e3 * t.ours.beyond_line_at_part.x(),
           1e3 * t.ours.beyond_line_at_part.y(), 1e3 * t.ours.beyond_line_at_part.z());
       for (const auto& [what, p] : t.impostors)
-        std::fprintf(stderr,
-                     " | %s %s [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f beyond %.3f ext %.0f thru "
-                     "%.4f reached "
-                     "%.2f bound %.2f region %d/%d line %.2f of %.0f] (%s)",
-                     p.found ? "FALSE ACCEPT" : "refused", what.c_str(), p.coverage, p.fitness, p.free_space,
-                     p.ambiguity, p.wall_residual, p.beyond_share, 1e3 * p.beyond_extent_m,
-                     p.see_through_share, p.reached_coverage, 1e3 * p.seam_error_bound_m, p.region_through,
-                     p.region_rays, p.beyond_line_share, 1e3 * p.beyond_line_length_m,
-                     p.reason.substr(0, 60).c_str());
+        std::fprintf(
+            stderr,
+            " | %s %s [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f patch %.3f beyond %.3f ext %.0f thru "
+            "%.4f reached "
+            "%.2f bound %.2f region %d/%d line %.2f of %.0f] (%s)",
+            p.found ? "FALSE ACCEPT" : "refused", what.c_str(), p.coverage, p.fitness, p.free_space,
+            p.ambiguity, p.wall_residual, p.wall_patch_share, p.beyond_share, 1e3 * p.beyond_extent_m,
+            p.see_through_share, p.reached_coverage, 1e3 * p.seam_error_bound_m, p.region_through,
+            p.region_rays, p.beyond_line_share, 1e3 * p.beyond_line_length_m, p.reason.substr(0, 60).c_str());
       std::fprintf(stderr, "\n");
     });
 

@@ -35,6 +35,7 @@
 #include "perception/localize/surface_icp.hpp"
 #include "perception/localize/table_plane.hpp"
 #include "perception/localize/verdict.hpp"
+#include "perception/localize/wall_patches.hpp"
 #include "perception/localize/wall_side.hpp"
 #include "perception/mesh_io.hpp"
 
@@ -55,6 +56,7 @@ struct LocalizeSetting {
   WallSideSetting wall_side;
   RefineSetting refine;
   PassAgreementSetting passes;
+  WallPatchSetting wall_patches;
   int threads = 0;  ///< hypotheses refined side by side (0: all cores)
   // Optional rough pose (T_base_part) from elsewhere: refined first, beside the peaks of the global search.
   bool use_initial_guess = false;
@@ -75,6 +77,12 @@ struct PoseEstimate {
   double ambiguity = 0.0;      ///< score of the best distinct non-equivalent pose over the best's
   double noise_m = 0.0;        ///< range noise sigma estimated from the table
   double wall_residual = 0.0;  ///< median |residual| of the scan points on the model's walls, in noise sigmas
+  /// With viewpoints: the share of the rays meeting the model's walls in patches of them off the model's
+  /// (wall_patches.hpp), the largest such patch's centre (part frame, mesh units) and its mean residual
+  /// (positive: the scan outside the wall) [m]
+  double wall_patch_share = 0.0;
+  Vec3 wall_patch_at_part = Vec3::Zero();
+  double wall_patch_offset_m = 0.0;
   bool converged = false;
   int iterations = 0;
   int inliers = 0;

@@ -126,8 +126,12 @@ IcpResult planar_icp(const std::vector<ScanPoint>& scan, const ScenePoints& c, P
         const Vec3& n = m.nrm[kk];
         const Vec3 p = P * scan[i].raw;
         const double r = (p - m.pts[kk]).dot(n);
-        if (std::abs(r) > max_d) continue;
         const Vec3 J(p.x() * n.y() - p.y() * n.x(), n.x(), n.y());
+        if (std::abs(r) > max_d) {
+          if (fine && it == iterations - 1)
+            out.beyond_trim.push_back({J, std::copysign(max_d, r), 1.0, m.pts[kk]});
+          continue;
+        }
         A += J * J.transpose();
         b -= J * r;
         ++used;

@@ -45,6 +45,9 @@ struct IcpResult {
   int iterations = 0;
   bool converged = false;
   std::vector<ResidualTerm> terms;  ///< the last iteration's residuals (fine refinement only)
+  /// With rays, the rays of the last iteration matched with a face whose residual lay beyond the trim: not in
+  /// the fit (a clamp, a blend, or the scan off the model there), their residuals clipped at the trim
+  std::vector<ResidualTerm> beyond_trim;
 };
 
 /// The points around a pose that can move (x, y, yaw): those nearest a face that is not level (a level

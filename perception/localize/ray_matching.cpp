@@ -1,5 +1,6 @@
 #include "perception/localize/ray_matching.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace weldtwin {
@@ -68,6 +69,8 @@ std::vector<uint8_t> rays_near_depth_edges(const std::vector<ScanPoint>& rays, c
 void match_rays(const std::vector<ScanPoint>& scan, PartModel& m, const Iso3& P, double edge_margin,
                 const RayMatchSetting& s, std::vector<int>& face) {
   face.assign(scan.size(), -1);
+  // (faces seen from behind, and more obliquely than max_incidence_deg, are not met)
+  const double min_cos_incidence = std::max(0.0, std::cos(deg2rad(s.max_incidence_deg)));
   for (size_t i = 0; i < scan.size(); ++i) {
     const ScanPoint& sp = scan[i];
     const Vec3 o = P * sp.origin, d = P.linear() * sp.ray;
@@ -79,8 +82,8 @@ void match_rays(const std::vector<ScanPoint>& scan, PartModel& m, const Iso3& P,
     const size_t kk = static_cast<size_t>(k);
     // Level faces say nothing of (x, y, yaw); near a feature edge or the table, which face a ray meets
     // changes with the pose itself.
-    if (std::abs(m.nrm[kk].z()) > s.level_normal_z || m.nrm[kk].dot(d) >= 0.0 || !m.visible[kk] ||
-        m.edge_distance[kk] < edge_margin || at.z() < edge_margin)
+    if (std::abs(m.nrm[kk].z()) > s.level_normal_z || -m.nrm[kk].dot(d) <= min_cos_incidence ||
+        !m.visible[kk] || m.edge_distance[kk] < edge_margin || at.z() < edge_margin)
       continue;
     face[i] = k;
   }

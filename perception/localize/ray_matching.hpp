@@ -30,11 +30,18 @@ struct RayMatchSetting {
   double ray_window_m = 0.02;      ///< a ray meeting the model this much before or beyond its range meets
                                    ///< something else [m]
   double level_normal_z = 0.95;    ///< faces this level say nothing of (x, y, yaw)
-  double outline_band_m = 0.008;   ///< table-level points this close to the footprint's outline take part [m]
-  double box_margin_m = 0.015;     ///< rays whose points lie this far beyond the model's box are not cast [m]
-  double deep_level_m = 0.004;     ///< points this close to a level face, deep inside it, are not cast [m]
-  double deep_edge_sigmas = 3.0;   ///< deep inside: farther from its edges than this many noise sigmas ...
-  double deep_edge_m = 0.002;      ///< ... plus this [m]
+  /// A ray meeting its face more obliquely than this does not place it: the LiDAR's returns fade away at
+  /// such incidence, and what is seen there is mostly a blend at the face's edge, the ray that passed by the
+  /// edge up to a sample spacing off reporting a range between the two surfaces. Along a long edge seen
+  /// from one side those blends all lean the same way and imitate the face moved by up to that spacing (the
+  /// tube tee's two long top edges, swept from its end: the tee placed 2.4-2.8 mm across its tube, the
+  /// bound under 1 mm) [deg]
+  double max_incidence_deg = 80.0;
+  double outline_band_m = 0.008;  ///< table-level points this close to the footprint's outline take part [m]
+  double box_margin_m = 0.015;    ///< rays whose points lie this far beyond the model's box are not cast [m]
+  double deep_level_m = 0.004;    ///< points this close to a level face, deep inside it, are not cast [m]
+  double deep_edge_sigmas = 3.0;  ///< deep inside: farther from its edges than this many noise sigmas ...
+  double deep_edge_m = 0.002;     ///< ... plus this [m]
 };
 
 /// The rays that may meet a face that can move (x, y, yaw) at pose P (table frame -> part frame):

@@ -158,10 +158,18 @@ std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
                   1e3 * c.z());
     return buf;
   }
-  // With rays, the walls' residual against the table's noise tells a different shape; without them the
-  // scan's own surfaces (neighbourhood centroids, where the noise averages out) against the model's.
-  if (in.rays && best.wall_residual > s.max_wall_residual)
-    return "the part's walls fit the scan worse than the noise explains: a different part?";
+  // With rays, the walls' patches off the model tell a different shape; without them the scan's own
+  // surfaces (neighbourhood centroids, where the noise averages out) against the model's.
+  if (in.rays && in.wall_patch_share > s.max_wall_patch_share) {
+    const Vec3& c = in.wall_patch_at_part;
+    std::snprintf(buf, sizeof buf,
+                  "%.0f %% of the scan on the part's walls lies off the model's walls (judged in patches by "
+                  "their own noise; the largest around (%.0f, %.0f, %.0f) mm of the part, %.1f mm off): a "
+                  "different part, or the part differs from its CAD there: check the part and its model",
+                  100 * in.wall_patch_share, 1e3 * c.x(), 1e3 * c.y(), 1e3 * c.z(),
+                  1e3 * std::abs(in.wall_patch_offset_m));
+    return buf;
+  }
   if (!in.rays && in.wall_offset_m > tol) {
     std::snprintf(
         buf, sizeof buf,
@@ -232,6 +240,10 @@ std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
         1e3 * in.seam_error_bound_m, where, 1e3 * tol, 1e3 * in.wall_sigma_m, 1e3 * in.thin_wall_m);
     return buf;
   }
+  if (std::isinf(in.seam_error_bound_m))
+    return "the scan holds nothing that fixes the part's place in some direction (its walls facing that way "
+           "were not seen, or only at grazing incidence): sweep again so that the LiDAR sees more of the "
+           "part's walls";
   if (!(in.seam_error_bound_m <= tol)) {
     std::snprintf(
         buf, sizeof buf,

@@ -1,6 +1,6 @@
 // Stage 6 of the localizer: whether to trust the best pose. Ambiguity against the best distinct pose that
 // is not the same weld (poses the part's symmetry, or its seams, map onto each other are the same weld), and
-// the figures against their limits: free space, coverage, fitness, the walls' residual.
+// the figures against their limits: free space, coverage, fitness, the walls' patches off the model.
 #pragma once
 
 #include <string>
@@ -13,11 +13,13 @@
 namespace weldtwin {
 
 struct VerdictSetting {
-  double min_coverage = 0.45;       ///< share of the model's visible samples with scan points nearby
-  double min_fitness = 0.55;        ///< share of the scan points in the model's region that it explains
-  double max_wall_residual = 0.58;  ///< median |residual| on the walls, in table noise sigmas (a different
-                                    ///< shape fits the walls worse than the noise explains)
-  double ambiguity_ratio = 0.85;    ///< a distinct pose scoring this close to the best is ambiguous ...
+  double min_coverage = 0.45;  ///< share of the model's visible samples with scan points nearby
+  double min_fitness = 0.55;   ///< share of the scan points in the model's region that it explains
+  /// With rays: at most this share of the rays meeting the model's walls may lie in patches off them
+  /// (wall_patches.hpp; right poses at most 7 % over 900 twin cells of eight passes, one pass and one pass
+  /// at the real scan's noise) [share]
+  double max_wall_patch_share = 0.15;
+  double ambiguity_ratio = 0.85;  ///< a distinct pose scoring this close to the best is ambiguous ...
   /// ... unless, with rays, decisively more of them went through it than through the best: by this many
   /// standard deviations of the two counts (Poisson) ...
   double rays_decisive_sigmas = 5.0;
@@ -109,9 +111,14 @@ struct VerdictInput {
   double see_through_share = 0.0;  ///< with rays: the share of those crossing the model that went through it
   double max_see_through_share = 0.15;
   Vec3 region_at_part = Vec3::Zero();  ///< with rays: score.region_at in the part frame [m]
-  double reached_coverage = -1.0;      ///< with rays: the coverage of the samples they reached (-1: none)
-  double beyond_extent_m = 0.0;  ///< the longest stretch of the model's faces continued past its edges with
-                                 ///< the scan on them [m] ...
+  /// With rays: the share of the rays meeting the model's walls in patches off them (wall_patches.hpp),
+  /// the largest such patch's centre (part frame) and mean residual [m]
+  double wall_patch_share = 0.0;
+  Vec3 wall_patch_at_part = Vec3::Zero();
+  double wall_patch_offset_m = 0.0;
+  double reached_coverage = -1.0;  ///< with rays: the coverage of the samples they reached (-1: none)
+  double beyond_extent_m = 0.0;    ///< the longest stretch of the model's faces continued past its edges with
+                                   ///< the scan on them [m] ...
   Vec3 beyond_at_part = Vec3::Zero();  ///< ... and its centre (part frame) [m]
   /// The share of one wall continued up past one straight top edge into open air with the scan on it (the
   /// most of any edge), that edge's length and where (part frame) [m]

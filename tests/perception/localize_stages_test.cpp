@@ -9,19 +9,23 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <random>
 #include <string>
 
 #include "perception/localize/part_extent.hpp"
 #include "perception/localize/pass_agreement.hpp"
+#include "perception/localize/planar_icp.hpp"
 #include "perception/localize/pose_search.hpp"
 #include "perception/localize/pose_uncertainty.hpp"
 #include "perception/localize/ray_matching.hpp"
 #include "perception/localize/scene_points.hpp"
 #include "perception/localize/see_through.hpp"
+#include "perception/localize/stats.hpp"
 #include "perception/localize/surface_icp.hpp"
 #include "perception/localize/table_plane.hpp"
 #include "perception/localize/verdict.hpp"
+#include "perception/localize/wall_patches.hpp"
 #include "perception/localize/wall_side.hpp"
 #include "perception/localizer.hpp"
 #include "perception/mesh_rays.hpp"
@@ -758,6 +762,107 @@ TEST(LocalizeStages, RaysBesideADepthEdgeAreMarkedRaysOnAnOpenFaceAreNot) {
   EXPECT_TRUE(near[0]);
   EXPECT_TRUE(near[1]);
   for (size_t i = 2; i < rays.size(); ++i) EXPECT_FALSE(near[i]) << rays[i].origin.transpose();
+}
+
+TEST(LocalizeStages, ARayMeetingAWallAtGrazingIncidenceDoesNotPlaceIt) {
+  // A wall of the square tube on its plate, met 60 deg from its normal and 85 deg (level rays, far from its
+  // edges): the first is matched with the wall, the second is not (a return that oblique is mostly a blend
+  // at the wall's edge); allowed up to 89 deg, it is.
+  const PartSpec part = PartSpec::load(test::repo("scenes/parts/tube_on_plate.yaml"));
+  PartModel model;
+  build_part_model(load_mesh(part.mesh_path), 0.0, PartModelSetting(), 0, model);
+  int wall = -1;
+  for (size_t k = 0; k < model.pts.size() && wall < 0; ++k)
+    if (model.nrm[k].x() > 0.99 && model.visible[k] && model.edge_distance[k] > 0.02 &&
+        model.pts[k].z() > 0.5 * model.height)
+      wall = static_cast<int>(k);
+  ASSERT_GE(wall, 0);
+  const Vec3 at = model.pts[static_cast<size_t>(wall)], n = model.nrm[static_cast<size_t>(wall)];
+  const Vec3 along = Vec3::UnitZ().cross(n).normalized();
+  std::vector<ScanPoint> rays;
+  for (const double deg : {60.0, 85.0}) {
+    ScanPoint sp;
+    sp.ray = (-std::cos(deg2rad(deg)) * n + std::sin(deg2rad(deg)) * along).normalized();
+    sp.range = 0.5;
+    sp.origin = at - sp.range * sp.ray;
+    sp.raw = sp.smooth = at;
+    rays.push_back(sp);
+  }
+  std::vector<int> face;
+  match_rays(rays, model, Iso3::Identity(), 0.001, RayMatchSetting(), face);
+  ASSERT_EQ(face.size(), 2u);
+  EXPECT_GE(face[0], 0);
+  EXPECT_EQ(face[1], -1);
+  RayMatchSetting oblique;
+  oblique.max_incidence_deg = 89.0;
+  match_rays(rays, model, Iso3::Identity(), 0.001, oblique, face);
+  EXPECT_GE(face[1], 0);
+}
+
+// The tube on its plate seen from one side with viewpoints, fitted by rays from the true pose with its mesh
+// widened by `scale` about its middle (its walls moved out): the share of the walls' patches off the model.
+double walls_off_share_widened(double scale, uint64_t seed) {
+  const Scene sc = tube_scene(0.0015, seed);
+  std::vector<Vec3> vps;
+  const std::vector<Vec3> cloud = one_sided_scan(sc.mesh, sc.truth, -0.35, 0.0015, seed, &vps);
+  Mesh wide = sc.mesh;
+  Vec3 lo = Vec3::Constant(1e9), hi = Vec3::Constant(-1e9);
+  for (const Vec3& v : wide.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+  const Vec3 mid = 0.5 * (lo + hi);
+  for (Vec3& v : wide.vertices) v.head<2>() = mid.head<2>() + scale * (v - mid).head<2>();
+  PartModel model;
+  build_part_model(wide, 0.0, PartModelSetting(), 0, model);
+  const TablePlane table = find_table_plane(cloud);
+  EXPECT_TRUE(table.found);
+  const ScenePoints scene =
+      scene_points(cloud, vps, table.plane, limits_for(table.noise_m), model.height, 1.2);
+  const Iso3 P0 = (scene.T_table_base * sc.truth).inverse();
+  const PlanarIcpSetting icp;
+  const std::vector<ScanPoint> rays = rays_near_pose(scene, cloud, vps, model, P0, icp.rays);
+  const IcpResult f = planar_icp(thinned(rays, static_cast<size_t>(icp.fine_points)), scene, model, P0,
+                                 icp.fine_iterations, true, icp);
+  return walls_off_model(f.terms, f.beyond_trim).off_share;
+}
+
+TEST(LocalizeStages, TheWallsOfAWiderPartLieOffTheModelInPatchesThoseOfThePartDoNot) {
+  // The part's own mesh: a few per cent at most. Widened by 4 % (the tube's walls 1 mm out, the plate's 3 mm)
+  // and by 20 % (5 mm and 16 mm: beyond the fit's trim, so only the rays it left out show it): refused.
+  const double bar = VerdictSetting().max_wall_patch_share;
+  for (const uint64_t seed : {3u, 4u}) {
+    const double own = walls_off_share_widened(1.0, seed), wider = walls_off_share_widened(1.04, seed),
+                 widest = walls_off_share_widened(1.2, seed);
+    std::printf(
+        "seed %llu: the walls off the model in patches: own %.3f, 4 %% wider %.3f, 20 %% wider %.3f\n",
+        static_cast<unsigned long long>(seed), own, wider, widest);
+    EXPECT_LT(own, 0.05);
+    EXPECT_GT(wider, bar);
+    EXPECT_GT(widest, bar);
+  }
+}
+
+TEST(LocalizeStages, WallsOffTheModelInPatchesAreRefusedWithWhereAndHowFar) {
+  // With rays: a third of the wall points in patches off the model refuses the pose, naming the largest
+  // patch (part frame) and its offset; a tenth does not.
+  VerdictInput in = passing_figures();
+  in.rays = true;
+  in.wall_patch_share = 0.33;
+  in.wall_patch_offset_m = -0.0024;
+  in.wall_patch_at_part = Vec3(0.012, -0.025, 0.030);
+  const std::string reason = verdict_reason(in);
+  EXPECT_NE(reason.find("33 % of the scan on the part's walls lies off the model's walls"), std::string::npos)
+      << reason;
+  EXPECT_NE(reason.find("(12, -25, 30) mm of the part, 2.4 mm off"), std::string::npos) << reason;
+  in.wall_patch_share = 0.1;
+  EXPECT_EQ(verdict_reason(in), "");
+}
+
+TEST(LocalizeStages, ABoundThatIsInfiniteSaysTheScanFixesNothingThere) {
+  VerdictInput in = passing_figures();
+  in.rays = true;
+  in.seam_error_bound_m = std::numeric_limits<double>::infinity();
+  const std::string reason = verdict_reason(in);
+  EXPECT_NE(reason.find("holds nothing that fixes the part's place"), std::string::npos) << reason;
+  EXPECT_EQ(reason.find("inf"), std::string::npos) << reason;
 }
 
 // Two passes over the tube on its plate, one from each side, each recorded in order (the sensor moving
