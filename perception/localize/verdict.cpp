@@ -162,12 +162,14 @@ std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
   // surfaces (neighbourhood centroids, where the noise averages out) against the model's.
   if (in.rays && in.wall_patch_share > s.max_wall_patch_share) {
     const Vec3& c = in.wall_patch_at_part;
-    std::snprintf(buf, sizeof buf,
-                  "%.0f %% of the scan on the part's walls lies off the model's walls (judged in patches by "
-                  "their own noise; the largest around (%.0f, %.0f, %.0f) mm of the part, %.1f mm off): a "
-                  "different part, or the part differs from its CAD there: check the part and its model",
-                  100 * in.wall_patch_share, 1e3 * c.x(), 1e3 * c.y(), 1e3 * c.z(),
-                  1e3 * std::abs(in.wall_patch_offset_m));
+    std::snprintf(
+        buf, sizeof buf,
+        "%.0f %% of the scan on the part's walls lies off the model's walls (judged in patches by "
+        "their own noise; the largest around (%.0f, %.0f, %.0f) mm of the part, %.1f mm off): a "
+        "different part, the part off its CAD there, or the LiDAR's mount off (it warps the walls): "
+        "check the part and its model, or calibrate the mount (weldtwin calibrate)",
+        100 * in.wall_patch_share, 1e3 * c.x(), 1e3 * c.y(), 1e3 * c.z(),
+        1e3 * std::abs(in.wall_patch_offset_m));
     return buf;
   }
   if (!in.rays && in.wall_offset_m > tol) {

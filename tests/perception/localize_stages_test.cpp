@@ -852,6 +852,7 @@ TEST(LocalizeStages, WallsOffTheModelInPatchesAreRefusedWithWhereAndHowFar) {
   EXPECT_NE(reason.find("33 % of the scan on the part's walls lies off the model's walls"), std::string::npos)
       << reason;
   EXPECT_NE(reason.find("(12, -25, 30) mm of the part, 2.4 mm off"), std::string::npos) << reason;
+  EXPECT_NE(reason.find("calibrate the mount"), std::string::npos) << reason;
   in.wall_patch_share = 0.1;
   EXPECT_EQ(verdict_reason(in), "");
 }
