@@ -600,6 +600,21 @@ TEST(LocalizeStages, TheRaysReachOnlyTheSideOfThePartTheLiDARFaces) {
   EXPECT_LT(coverage(scene, model, moved, off.reached), VerdictSetting().min_reached_coverage);
 }
 
+TEST(LocalizeStages, APartTheSweepReachedLittleOfIsJudgedByWhatItReached) {
+  // One short pass far from the part reaches a tenth of its model: seen all over, that tenth places it; the
+  // share of the whole model is only a floor against a match resting on a clamp's corner.
+  VerdictInput in;
+  in.rays = true;
+  in.score.inliers = in.score.region = 100;
+  in.score.coverage = 0.10, in.reached_coverage = 0.97;
+  EXPECT_EQ(verdict_reason(in), "");
+  in.reached_coverage = 0.5;  // half of what the rays reached has no scan on it: not this part, not here
+  EXPECT_NE(verdict_reason(in).find("50 % of what the LiDAR's rays reached"), std::string::npos)
+      << verdict_reason(in);
+  in.reached_coverage = 0.97, in.score.coverage = 0.03;
+  EXPECT_NE(verdict_reason(in).find("3 % of all of it"), std::string::npos) << verdict_reason(in);
+}
+
 TEST(LocalizeStages, ARivalThroughWhichDecisivelyMoreRaysWentIsNotAmbiguous) {
   PartSpec part = PartSpec::load(test::repo("scenes/parts/tube_on_plate.yaml"));
   PartModel model;
