@@ -79,6 +79,8 @@ nlohmann::json pose_to_json(const PoseEstimate& pose) {
     out["level_offset_mm"] = 1e3 * pose.level_offset_m;
     out["wall_sigma_mm"] = 1e3 * pose.wall_sigma_m;
     out["wall_side_bias_mm"] = 1e3 * pose.wall_side_bias_m;
+  } else if (pose.ambiguity > 0.0) {
+    out["rival"] = {{"seams_mm", 1e3 * pose.rival_offset_m}, {"turn_deg", rad2deg(pose.rival_turn_rad)}};
   }
   return out;
 }

@@ -241,7 +241,12 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
     out.wall_side_bias_m = wall_side_bias_m(model.thin_wall_m, out.wall_sigma_m);
   } else {
     uncertainty = pose_uncertainty(best.icp.terms, s.uncertainty);
-    out.ambiguity = ambiguity(best, rivals, model, s.verdict);
+    if (const Candidate* rival = strongest_rival(best, rivals, model, s.verdict)) {
+      out.ambiguity = rival->score.support() / std::max(1e-9, best.score.support());
+      const RivalOffset apart = rival_offset(best, *rival, seam_error_at);
+      out.rival_offset_m = apart.seams_m;
+      out.rival_turn_rad = apart.turn_rad;
+    }
     // Rays near the model's depth edges: the beam straddles two surfaces there and may report a range
     // between them (mixed pixels: seen from one side they do not average out, and the fit's residuals cannot
     // show it). The uncertainty counts a bias on them besides the noise, the same along the edge (the fine
@@ -312,6 +317,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   verdict.ambiguity = out.ambiguity;
   verdict.margin_llr = out.margin_llr;
   verdict.rival_offset_m = out.rival_offset_m;
+  verdict.rival_turn_rad = out.rival_turn_rad;
   verdict.seam_error_bound_m = out.seam_error_bound_m;
   verdict.wall_offset_m = out.wall_offset_m;
   verdict.level_offset_m = out.level_offset_m;

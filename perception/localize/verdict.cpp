@@ -95,15 +95,30 @@ size_t best_by_rays(const std::vector<Candidate>& refined, const VerdictSetting&
   return k;
 }
 
-double ambiguity(const Candidate& best, const std::vector<const Candidate*>& rivals, PartModel& model,
-                 const VerdictSetting& s) {
-  double out = 0.0;
+const Candidate* strongest_rival(const Candidate& best, const std::vector<const Candidate*>& rivals,
+                                 PartModel& model, const VerdictSetting& s) {
+  const Candidate* out = nullptr;
   for (const Candidate* r : distinct_rivals(best, rivals, model, s)) {
     // With rays, a rival through which decisively more rays went than through the best explains the scan
     // worse, whatever its support.
     if (decisively_more_rays_through(*r, best, s)) continue;
-    out = std::max(out, r->score.support() / std::max(1e-9, best.score.support()));
+    if (!out || r->score.support() > out->score.support()) out = r;
   }
+  return out;
+}
+
+double ambiguity(const Candidate& best, const std::vector<const Candidate*>& rivals, PartModel& model,
+                 const VerdictSetting& s) {
+  const Candidate* r = strongest_rival(best, rivals, model, s);
+  return r ? r->score.support() / std::max(1e-9, best.score.support()) : 0.0;
+}
+
+RivalOffset rival_offset(const Candidate& best, const Candidate& rival,
+                         const std::vector<Vec3>& seam_points) {
+  const Iso3 D = best.P * rival.P.inverse();  // part frame to part frame
+  RivalOffset out;
+  for (const Vec3& p : seam_points) out.seams_m = std::max(out.seams_m, (D * p - p).norm());
+  out.turn_rad = Eigen::AngleAxisd(D.linear()).angle();
   return out;
 }
 
@@ -210,8 +225,26 @@ std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
         1e3 * c.x(), 1e3 * c.y(), 1e3 * c.z(), best.region_through, best.region_rays);
     return buf;
   }
-  if (in.ambiguity >= s.ambiguity_ratio) return "ambiguous: a different pose fits almost as well";
-  if (in.margin_llr < s.min_margin_llr && in.rival_offset_m > tol) {
+  if (in.ambiguity >= s.ambiguity_ratio) {
+    // With rays: what the rival would change, and what to do about it.
+    if (in.rival_offset_m <= tol)
+      std::snprintf(
+          buf, sizeof buf,
+          "ambiguous: a pose turned %.0f deg from the best fits the scan about as well (%.0f %% of its "
+          "support); it puts the seams where the best does (%.1f mm away) but the part's body "
+          "elsewhere, and the scan does not tell which: sweep again so that the LiDAR sees the part "
+          "from another side",
+          rad2deg(in.rival_turn_rad), 100 * in.ambiguity, 1e3 * in.rival_offset_m);
+    else
+      std::snprintf(
+          buf, sizeof buf,
+          "ambiguous: a pose that puts the seams %.1f mm away (turned %.1f deg) fits the scan about as well "
+          "(%.0f %% of the best's support): sweep again so that the LiDAR sees the part from "
+          "another side",
+          1e3 * in.rival_offset_m, rad2deg(in.rival_turn_rad), 100 * in.ambiguity);
+    return buf;
+  }
+  if (!in.rays && in.margin_llr < s.min_margin_llr && in.rival_offset_m > tol) {
     std::snprintf(buf, sizeof buf,
                   "ambiguous: a pose that puts the seams %.1f mm away fits almost as well (likelihood ratio "
                   "e^%.1f; e^%.0f needed), as when the scan may lie on either side of a wall: sweep again so "

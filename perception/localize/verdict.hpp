@@ -81,9 +81,22 @@ bool decisively_more_rays_through(const Candidate& more, const Candidate& fewer,
 /// first: then the one of those with the fewest rays through it.
 size_t best_by_rays(const std::vector<Candidate>& refined, const VerdictSetting& setting = {});
 
-/// The best distinct rival's support over the best's (0: none).
+/// The distinct rival (distinct_rivals) with the most support, leaving out, with rays, those through which
+/// decisively more rays went than through the best (null: none).
+const Candidate* strongest_rival(const Candidate& best, const std::vector<const Candidate*>& rivals,
+                                 PartModel& model, const VerdictSetting& setting = {});
+
+/// The strongest rival's support over the best's (0: none).
 double ambiguity(const Candidate& best, const std::vector<const Candidate*>& rivals, PartModel& model,
                  const VerdictSetting& setting = {});
+
+/// How far a rival pose moves the part from the best: the farthest any of `seam_points` (part frame) moves
+/// [m], and the turn between the two [rad].
+struct RivalOffset {
+  double seams_m = 0.0;
+  double turn_rad = 0.0;
+};
+RivalOffset rival_offset(const Candidate& best, const Candidate& rival, const std::vector<Vec3>& seam_points);
 
 /// Whether turning `seam_points` about the vertical through their centroid maps them onto themselves (a
 /// full circle): then the part's yaw does not move the weld.
@@ -96,11 +109,13 @@ std::vector<Vec3> seam_error_points(const std::vector<Vec3>& seam_points, const 
 
 /// What the verdict weighs.
 struct VerdictInput {
-  Score score;                  ///< of the best pose
-  bool rays = false;            ///< refined by rays cast from the points' viewpoints
-  double ambiguity = 0.0;       ///< with rays: the best distinct rival's support over the best's
-  double margin_llr = 0.0;      ///< without rays: log-likelihood ratio over the best fit welding elsewhere
-  double rival_offset_m = 0.0;  ///< ... and how far that fit puts the seams [m]
+  Score score;              ///< of the best pose
+  bool rays = false;        ///< refined by rays cast from the points' viewpoints
+  double ambiguity = 0.0;   ///< with rays: the best distinct rival's support over the best's
+  double margin_llr = 0.0;  ///< without rays: log-likelihood ratio over the best fit welding elsewhere
+  double rival_offset_m =
+      0.0;  ///< ... and how far that fit puts the seams (with rays: the strongest rival) [m]
+  double rival_turn_rad = 0.0;      ///< with rays: the turn between the best and the strongest rival [rad]
   double seam_error_bound_m = 0.0;  ///< 95 % bound on the seam error from the fit [m]
   double yaw_bound_rad = 0.0;       ///< 95 % bound on the turn about the table normal [rad]
   bool yaw_matters = true;          ///< false: the seams map onto themselves under turns (full circles)

@@ -615,6 +615,41 @@ TEST(LocalizeStages, APartTheSweepReachedLittleOfIsJudgedByWhatItReached) {
   EXPECT_NE(verdict_reason(in).find("3 % of all of it"), std::string::npos) << verdict_reason(in);
 }
 
+TEST(LocalizeStages, AnAmbiguousRefusalSaysWhatTheRivalWouldChange) {
+  // A rival turned 35 deg about the seams' axis (a square plate under a round tube) welds in the same place;
+  // one moved 2 mm along the part welds elsewhere. rival_offset measures both at the seams' points.
+  Candidate best, turned, moved;
+  best.P = planar_pose(0.30, -0.10, 0.0, deg2rad(20.0));
+  const Vec3 axis(0.02, 0.01, 0.0);  // the seams' axis point, part frame
+  turned.P = make_transform(axis, Mat3::Identity()) * planar_pose(0, 0, 0, deg2rad(35.0)) *
+             make_transform(-axis, Mat3::Identity()) * best.P;
+  moved.P = planar_pose(0.002, 0.0, 0.0, 0.0) * best.P;
+  const RivalOffset a = rival_offset(best, turned, {axis});
+  EXPECT_LT(a.seams_m, 1e-9);
+  EXPECT_NEAR(rad2deg(a.turn_rad), 35.0, 1e-6);
+  const RivalOffset b = rival_offset(best, moved, {axis, Vec3(0.1, 0.0, 0.0)});
+  EXPECT_NEAR(b.seams_m, 0.002, 1e-9);
+  EXPECT_LT(b.turn_rad, 1e-9);
+
+  VerdictInput in;
+  in.rays = true;
+  in.score.inliers = in.score.region = 100;
+  in.score.coverage = 0.5, in.reached_coverage = 0.95;
+  in.ambiguity = 0.9;
+  in.rival_offset_m = a.seams_m, in.rival_turn_rad = a.turn_rad;
+  EXPECT_NE(
+      verdict_reason(in).find("a pose turned 35 deg from the best fits the scan about as well (90 % of its "
+                              "support); it puts the seams where the best does"),
+      std::string::npos)
+      << verdict_reason(in);
+  in.rival_offset_m = b.seams_m, in.rival_turn_rad = b.turn_rad;
+  EXPECT_NE(verdict_reason(in).find("a pose that puts the seams 2.0 mm away (turned 0.0 deg)"),
+            std::string::npos)
+      << verdict_reason(in);
+  in.ambiguity = 0.8;  // below the ratio: not ambiguous
+  EXPECT_EQ(verdict_reason(in), "");
+}
+
 TEST(LocalizeStages, ARivalThroughWhichDecisivelyMoreRaysWentIsNotAmbiguous) {
   PartSpec part = PartSpec::load(test::repo("scenes/parts/tube_on_plate.yaml"));
   PartModel model;
