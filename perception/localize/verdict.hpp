@@ -48,7 +48,7 @@ struct VerdictSetting {
   /// a part of it): at least this share of the reached samples seen ...
   double min_reached_coverage = 0.7;
   /// ... and at least this share of the whole visible model [share]: a token floor (a match resting on a
-  /// clamp's corner). One pass at the real scan's noise finds right poses whose sweep reached 8-19 % of the
+  /// clamp's corner). One pass at the real scan's noise finds right poses whose sweep reached 8-20 % of the
   /// model and saw 90-100 % of that; of the 720 absent- and wrong-part cases there, the 30 refused first by a
   /// floor of 20 % are all refused by the tests after it (fitness, the scan past the model's edges or up past
   /// a top edge, the walls' patches, the rays through one region, the bound)
