@@ -242,7 +242,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   } else {
     uncertainty = pose_uncertainty(best.icp.terms, s.uncertainty);
     if (const Candidate* rival = strongest_rival(best, rivals, model, s.verdict)) {
-      out.ambiguity = rival->score.support() / std::max(1e-9, best.score.support());
+      out.ambiguity = support_ratio(*rival, best);
       const RivalOffset apart = rival_offset(best, *rival, seam_error_at);
       out.rival_offset_m = apart.seams_m;
       out.rival_turn_rad = apart.turn_rad;

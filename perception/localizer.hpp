@@ -95,9 +95,11 @@ struct PoseEstimate {
   /// Without viewpoints: the log-likelihood ratio of the pose over the best fit that welds elsewhere (the
   /// scan on the other side of the walls, a rival of the search); +inf: none was found.
   double margin_llr = 0.0;
-  double rival_offset_m = 0.0;       ///< how far that fit puts the seams from this pose's [m] ...
-  double rival_turn_rad = 0.0;       ///< ... and, with viewpoints, the turn to the strongest rival [rad]
+  double rival_offset_m = 0.0;       ///< how far that fit puts the seams from this pose's [m]
   double residual_margin_llr = 0.0;  ///< ... the same from the residuals alone, without the view prior
+  /// With viewpoints, when a distinct pose has support: how far the strongest rival puts the seams
+  /// (rival_offset_m, above) and its turn from this pose [rad]
+  double rival_turn_rad = 0.0;
   double wall_offset_m =
       0.0;  ///< without viewpoints: median distance of the scan's walls from the model's [m]
   double level_offset_m = 0.0;  ///< ... and median height of its level faces above the model's [m]

@@ -107,10 +107,14 @@ const Candidate* strongest_rival(const Candidate& best, const std::vector<const 
   return out;
 }
 
+double support_ratio(const Candidate& rival, const Candidate& best) {
+  return rival.score.support() / std::max(1e-9, best.score.support());
+}
+
 double ambiguity(const Candidate& best, const std::vector<const Candidate*>& rivals, PartModel& model,
                  const VerdictSetting& s) {
   const Candidate* r = strongest_rival(best, rivals, model, s);
-  return r ? r->score.support() / std::max(1e-9, best.score.support()) : 0.0;
+  return r ? support_ratio(*r, best) : 0.0;
 }
 
 RivalOffset rival_offset(const Candidate& best, const Candidate& rival,

@@ -86,6 +86,9 @@ size_t best_by_rays(const std::vector<Candidate>& refined, const VerdictSetting&
 const Candidate* strongest_rival(const Candidate& best, const std::vector<const Candidate*>& rivals,
                                  PartModel& model, const VerdictSetting& setting = {});
 
+/// A rival's support over the best's.
+double support_ratio(const Candidate& rival, const Candidate& best);
+
 /// The strongest rival's support over the best's (0: none).
 double ambiguity(const Candidate& best, const std::vector<const Candidate*>& rivals, PartModel& model,
                  const VerdictSetting& setting = {});
@@ -109,13 +112,12 @@ std::vector<Vec3> seam_error_points(const std::vector<Vec3>& seam_points, const 
 
 /// What the verdict weighs.
 struct VerdictInput {
-  Score score;              ///< of the best pose
-  bool rays = false;        ///< refined by rays cast from the points' viewpoints
-  double ambiguity = 0.0;   ///< with rays: the best distinct rival's support over the best's
-  double margin_llr = 0.0;  ///< without rays: log-likelihood ratio over the best fit welding elsewhere
-  double rival_offset_m =
-      0.0;  ///< ... and how far that fit puts the seams (with rays: the strongest rival) [m]
-  double rival_turn_rad = 0.0;      ///< with rays: the turn between the best and the strongest rival [rad]
+  Score score;                  ///< of the best pose
+  bool rays = false;            ///< refined by rays cast from the points' viewpoints
+  double ambiguity = 0.0;       ///< with rays: the best distinct rival's support over the best's
+  double margin_llr = 0.0;      ///< without rays: log-likelihood ratio over the best fit welding elsewhere
+  double rival_offset_m = 0.0;  ///< ... and how far it puts the seams (with rays: the strongest rival) [m]
+  double rival_turn_rad = 0.0;  ///< with rays: the turn between the best and the strongest rival [rad]
   double seam_error_bound_m = 0.0;  ///< 95 % bound on the seam error from the fit [m]
   double yaw_bound_rad = 0.0;       ///< 95 % bound on the turn about the table normal [rad]
   bool yaw_matters = true;          ///< false: the seams map onto themselves under turns (full circles)
