@@ -34,6 +34,9 @@ nlohmann::json pose_to_json(const PoseEstimate& pose) {
   out["seam_error_bound_mm"] = std::isfinite(pose.seam_error_bound_m)
                                    ? nlohmann::json(1e3 * pose.seam_error_bound_m)
                                    : nlohmann::json();
+  // The direction it is widest in (part frame) and how many of the scan's 1 cm cells hold the pose that way.
+  out["seam_error_bound_along"] = {pose.bound_direction_part.x(), pose.bound_direction_part.y()};
+  out["seam_error_bound_cells"] = pose.bound_cells;
   out["yaw_bound_deg"] =
       std::isfinite(pose.yaw_bound_rad) ? nlohmann::json(rad2deg(pose.yaw_bound_rad)) : nlohmann::json();
   out["covariance_yaw_x_y"] = nlohmann::json::array();

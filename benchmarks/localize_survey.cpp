@@ -397,13 +397,14 @@ int main(int argc, char** argv) {
           stderr,
           " [cov %.2f fit %.2f free %.2f amb %.2f wall %.2f patch %.3f noise %.2f bound %.2f llr %.1f rllr "
           "%.1f wsig "
-          "%.2f bias %.2f beyond %.3f ext %.0f thru %.4f reached %.2f tilt %.3f deg z %.2f mm edge %.2f mm "
+          "%.2f cells %.1f bias %.2f beyond %.3f ext %.0f thru %.4f reached %.2f tilt %.3f deg z %.2f mm "
+          "edge %.2f mm "
           "%.2f deg region %d/%d line %.2f of %.0f at %.0f %.0f %.0f]",
           t.ours.coverage, t.ours.fitness, t.ours.free_space, t.ours.ambiguity, t.ours.wall_residual,
           t.ours.wall_patch_share, 1e3 * t.ours.noise_m, 1e3 * t.ours.seam_error_bound_m, t.ours.margin_llr,
-          t.ours.residual_margin_llr, 1e3 * t.ours.wall_sigma_m, 1e3 * t.ours.wall_side_bias_m,
-          t.ours.beyond_share, 1e3 * t.ours.beyond_extent_m, t.ours.see_through_share,
-          t.ours.reached_coverage,
+          t.ours.residual_margin_llr, 1e3 * t.ours.wall_sigma_m, t.ours.bound_cells,
+          1e3 * t.ours.wall_side_bias_m, t.ours.beyond_share, 1e3 * t.ours.beyond_extent_m,
+          t.ours.see_through_share, t.ours.reached_coverage,
           rad2deg(std::acos(std::min(1.0, t.ours.table_plane.head<3>().normalized().z()))),
           -1e3 * t.ours.table_plane.w() / std::max(1e-9, t.ours.table_plane.head<3>().norm()),
           1e3 * t.ours.edge_shift_m, rad2deg(t.ours.edge_turn_rad), t.ours.region_through, t.ours.region_rays,
@@ -426,7 +427,7 @@ int main(int argc, char** argv) {
       std::ofstream out(csv);
       out << "part,seed,points,ours_found,ours_reason,ours_seam_max_mm,ours_seam_mean_mm,ours_rot_deg,ours_s,"
              "paper_seam_max_mm,paper_rot_deg,paper_s,false_accepts,ours_radial_mm,ours_tangential_mm,"
-             "ours_bound_mm,ours_passes,ours_pass_apart_mm,ours_pass_excess_mm\n";
+             "ours_bound_mm,ours_passes,ours_pass_apart_mm,ours_pass_excess_mm,ours_bound_cells\n";
       for (const Trial& t : trials) {
         int fa = 0;
         for (const auto& im : t.impostors) fa += im.second.found;
@@ -437,7 +438,7 @@ int main(int argc, char** argv) {
             << rad2deg(t.paper_err.rotation_rad) << ',' << t.paper.seconds << ',' << fa << ','
             << 1e3 * t.radial_m << ',' << 1e3 * t.tangential_m << ',' << 1e3 * t.ours.seam_error_bound_m
             << ',' << t.ours.passes_fitted << ',' << 1e3 * t.ours.pass_apart_m << ','
-            << 1e3 * t.ours.pass_excess_m << '\n';
+            << 1e3 * t.ours.pass_excess_m << ',' << t.ours.bound_cells << '\n';
       }
     }
     std::printf("%-15s %7s %9s %8s %8s %8s %8s %8s %9s %9s %8s\n", "part (method)", "trials", "success",

@@ -281,8 +281,10 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   stage("fit");
   out.covariance = uncertainty.covariance;
   out.yaw_bound_rad = yaw_bound_rad(uncertainty, s.uncertainty);
-  out.seam_error_bound_m =
-      seam_error_bound_m(uncertainty, seam_error_at, s.uncertainty) + out.wall_side_bias_m + out.edge_shift_m;
+  const SeamBound bound = seam_error_bound(uncertainty, seam_error_at, s.uncertainty);
+  out.bound_cells = bound.cells;
+  out.bound_direction_part = Vec3(bound.direction.x(), bound.direction.y(), 0.0);
+  out.seam_error_bound_m = bound.bound_m + out.wall_side_bias_m + out.edge_shift_m;
   // A fit about as likely that welds within the tolerance of this one is part of the uncertainty; one beyond
   // it makes the answer ambiguous (the verdict).
   if (out.margin_llr < s.verdict.min_margin_llr && out.rival_offset_m <= s.verdict.weld_tolerance_m)
@@ -319,6 +321,8 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   verdict.rival_offset_m = out.rival_offset_m;
   verdict.rival_turn_rad = out.rival_turn_rad;
   verdict.seam_error_bound_m = out.seam_error_bound_m;
+  verdict.bound_direction_part = out.bound_direction_part;
+  verdict.bound_cells = out.bound_cells;
   verdict.wall_offset_m = out.wall_offset_m;
   verdict.level_offset_m = out.level_offset_m;
   verdict.wall_side_bias_m = out.wall_side_bias_m;

@@ -90,6 +90,10 @@ struct PoseEstimate {
   int object_points = 0;                                  ///< points above the table after voxelisation
   bool rays_cast = false;  ///< refined by casting each point's ray from its viewpoint (the cloud had them)
   double seam_error_bound_m = 0.0;  ///< 95 % bound on any seam point's error from the fit (+inf: unbounded)
+  /// The direction (part frame, level) in which the fit leaves the seams most uncertain, and how many of the
+  /// scan's 1 cm cells effectively hold the pose that way (pose_uncertainty.hpp: effective_cells)
+  Vec3 bound_direction_part = Vec3::Zero();
+  double bound_cells = 0.0;
   double yaw_bound_rad = 0.0;      ///< 95 % bound on the part's turn about the table normal (+inf: unbounded)
   Mat3 covariance = Mat3::Zero();  ///< of (yaw [rad], x [m], y [m]) of the part, its own frame
   /// Without viewpoints: the log-likelihood ratio of the pose over the best fit that welds elsewhere (the

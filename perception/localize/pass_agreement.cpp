@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "perception/localize/stats.hpp"
 
@@ -48,7 +49,7 @@ PassAgreement pass_agreement(const std::vector<ScanPoint>& rays, const ScenePoin
   // that direction (independent passes: the covariances add; the same 95 % scale as the seam bound's). A
   // pass's fit may be loose one way (along a tube seen from one side) and tight another: the disagreement
   // counts where it is measured.
-  const double scale = std::sqrt(uncertainty.chi2_3dof);
+  const double scale = std::sqrt(confidence_scale2(std::numeric_limits<double>::infinity(), uncertainty));
   for (size_t a = 0; a < fitted.size(); ++a)
     for (size_t b = a + 1; b < fitted.size(); ++b) {
       const Iso3 D = fitted[a].P * fitted[b].P.inverse();  // part frame to part frame

@@ -3,8 +3,12 @@
 #include <cmath>
 #include <limits>
 #include <unordered_map>
+#include <vector>
 
 #include <Eigen/Eigenvalues>
+#include <boost/math/distributions/chi_squared.hpp>
+#include <boost/math/distributions/normal.hpp>
+#include <boost/math/distributions/students_t.hpp>
 
 namespace weldtwin {
 namespace {
@@ -24,6 +28,7 @@ PoseUncertainty pose_uncertainty(const std::vector<ResidualTerm>& terms, const P
   PoseUncertainty out;
   Mat3 H = Mat3::Zero();
   std::unordered_map<long long, Vec3> g, unseen;
+  std::unordered_map<long long, Mat3> info;
   double wr2 = 0.0, wsum = 0.0;
   for (const ResidualTerm& t : terms) {
     if (t.w <= 0.0) continue;
@@ -32,6 +37,7 @@ PoseUncertainty pose_uncertainty(const std::vector<ResidualTerm>& terms, const P
     wsum += t.w;
     auto it = g.try_emplace(cell_key(t.at, s.cluster_cell_m), Vec3::Zero()).first;
     it->second += t.w * t.r * t.J;
+    info.try_emplace(it->first, Mat3::Zero()).first->second += t.w * t.J * t.J.transpose();
     if (t.unseen_sigma_m > 0.0)
       unseen.try_emplace(it->first, Vec3::Zero()).first->second += t.w * t.unseen_sigma_m * t.J;
   }
@@ -47,6 +53,9 @@ PoseUncertainty pose_uncertainty(const std::vector<ResidualTerm>& terms, const P
   const Mat3 Hi =
       eig.eigenvectors() * eig.eigenvalues().cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
   out.covariance = Hi * B * Hi;
+  out.information_inverse = Hi;
+  out.cell_information.reserve(info.size());
+  for (const auto& [key, Hc] : info) out.cell_information.push_back(Hc);
   out.residual_sigma_m = std::sqrt(wr2 / wsum);
   // Design effect: the generalized eigenvalues of the sandwich against sigma^2 H^-1, i.e. of B against
   // sigma^2 H (B v = lambda sigma^2 H v), the largest.
@@ -58,30 +67,68 @@ PoseUncertainty pose_uncertainty(const std::vector<ResidualTerm>& terms, const P
   return out;
 }
 
+double effective_cells(const PoseUncertainty& u, const Vec3& c) {
+  if (!u.ok) return 0.0;
+  const Vec3 a = u.information_inverse * c;
+  const double total = c.dot(a);
+  if (!(total > 0.0)) return 0.0;
+  double sum2 = 0.0;
+  for (const Mat3& Hc : u.cell_information) sum2 += std::pow(a.dot(Hc * a) / total, 2);
+  return sum2 > 0.0 ? 1.0 / sum2 : 0.0;
+}
+
+double confidence_scale2(double cells, const PoseUncertaintySetting& s) {
+  namespace bm = boost::math;
+  constexpr double k = 3.0;  // (yaw, x, y)
+  const double region = bm::quantile(bm::chi_squared(k), s.confidence);
+  if (std::isinf(cells)) return region;
+  if (!(cells > 2.0)) return std::numeric_limits<double>::infinity();
+  // A two-sided interval on one direction: Student's t with G - 1 degrees of freedom against the normal's.
+  const double tail = 0.5 * (1.0 + s.confidence);
+  const double t = bm::quantile(bm::students_t(cells - 1.0), tail), z = bm::quantile(bm::normal(), tail);
+  return region * (t * t) / (z * z);
+}
+
 Eigen::Matrix<double, 2, 3> planar_move_jacobian(const Vec3& p) {
   Eigen::Matrix<double, 2, 3> J;
   J << -p.y(), 1.0, 0.0, p.x(), 0.0, 1.0;
   return J;
 }
 
-double seam_error_bound_m(const PoseUncertainty& u, const std::vector<Vec3>& points,
-                          const PoseUncertaintySetting& s) {
-  if (!u.ok) return std::numeric_limits<double>::infinity();
+SeamBound seam_error_bound(const PoseUncertainty& u, const std::vector<Vec3>& points,
+                           const PoseUncertaintySetting& s) {
+  SeamBound out;
+  if (!u.ok) return out;
   // A point p moves by (-theta p_y + x, theta p_x + y) under the perturbation (theta, x, y); over the
-  // confidence ellipsoid xi^T Cov^-1 xi <= chi2 its largest move is sqrt(chi2 lambda_max(J Cov J^T)).
+  // confidence ellipsoid xi^T Cov^-1 xi <= q its largest move along a unit v is sqrt(q v^T J Cov J^T v),
+  // largest along the principal directions of J Cov J^T, with q from the cells that inform that move.
   double worst = 0.0;
   for (const Vec3& p : points) {
     const Eigen::Matrix<double, 2, 3> J = planar_move_jacobian(p);
-    const Eigen::Matrix2d C = J * u.covariance * J.transpose();
-    const double lmax = 0.5 * (C.trace() + std::sqrt(std::pow(C(0, 0) - C(1, 1), 2) + 4 * C(0, 1) * C(0, 1)));
-    worst = std::max(worst, lmax);
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(J * u.covariance * J.transpose());
+    for (int axis = 0; axis < 2; ++axis) {
+      const Eigen::Vector2d v = eig.eigenvectors().col(axis);
+      const double cells = effective_cells(u, J.transpose() * v);
+      const double reach2 = confidence_scale2(cells, s) * eig.eigenvalues()(axis);
+      if (reach2 > worst) {
+        worst = reach2;
+        out.direction = v;
+        out.cells = cells;
+      }
+    }
   }
-  return std::sqrt(s.chi2_3dof * worst);
+  out.bound_m = points.empty() ? 0.0 : std::sqrt(worst);
+  return out;
+}
+
+double seam_error_bound_m(const PoseUncertainty& u, const std::vector<Vec3>& points,
+                          const PoseUncertaintySetting& s) {
+  return seam_error_bound(u, points, s).bound_m;
 }
 
 double yaw_bound_rad(const PoseUncertainty& u, const PoseUncertaintySetting& s) {
   if (!u.ok) return std::numeric_limits<double>::infinity();
-  return std::sqrt(s.chi2_3dof * u.covariance(0, 0));
+  return std::sqrt(confidence_scale2(effective_cells(u, Vec3::UnitX()), s) * u.covariance(0, 0));
 }
 
 double wall_side_bias_m(double t, double sigma) {

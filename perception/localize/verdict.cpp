@@ -126,6 +126,16 @@ RivalOffset rival_offset(const Candidate& best, const Candidate& rival,
   return out;
 }
 
+std::string part_direction_name(const Vec3& d) {
+  constexpr double kAlongAxis = 0.95;  // cos 18 deg: named by the axis it is nearest
+  const Vec3 u = d.normalized();
+  if (std::abs(u.x()) >= kAlongAxis) return "x";
+  if (std::abs(u.y()) >= kAlongAxis) return "y";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "(%.2f, %.2f) direction", std::abs(u.x()), u.x() < 0 ? -u.y() : u.y());
+  return buf;
+}
+
 std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
   const Score& best = in.score;
   const double fitness = best.region ? static_cast<double>(best.inliers) / best.region : 0.0;
@@ -283,6 +293,16 @@ std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
     return "the scan holds nothing that fixes the part's place in some direction (its walls facing that way "
            "were not seen, or only at grazing incidence): sweep again so that the LiDAR sees more of the "
            "part's walls";
+  if (!(in.seam_error_bound_m <= tol) && in.bound_cells > 0.0 && in.bound_cells < s.few_cells) {
+    const std::string along = part_direction_name(in.bound_direction_part);
+    std::snprintf(
+        buf, sizeof buf,
+        "the pose is uncertain by up to %.2f mm %s (95 %%; tolerance %.2f mm): along the part's %s "
+        "only about %.0f small patches of its walls hold it (those facing that way were barely seen): sweep "
+        "again so that the LiDAR sees the part's walls facing along its %s",
+        1e3 * in.seam_error_bound_m, where, 1e3 * tol, along.c_str(), in.bound_cells, along.c_str());
+    return buf;
+  }
   if (!(in.seam_error_bound_m <= tol)) {
     std::snprintf(
         buf, sizeof buf,

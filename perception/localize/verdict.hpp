@@ -31,7 +31,10 @@ struct VerdictSetting {
   double same_seam_m = 0.0015;      ///< every seam point maps within this of a seam point [m]
   double weld_tolerance_m = 0.001;  ///< a pose is accepted when its seam error bound is within this [m]
   double yaw_tolerance_deg = 0.5;   ///< ... and its yaw bound within this (the torch's angles) [deg]
-  double min_margin_llr = 15.0;     ///< a fit that welds elsewhere must be this much less likely (nats)
+  /// A bound's refusal names the direction it is widest in when fewer of the scan's cells than this hold
+  /// the pose that way (then the walls facing that way were barely seen: the quantile is Student's, wide)
+  double few_cells = 10.0;
+  double min_margin_llr = 15.0;  ///< a fit that welds elsewhere must be this much less likely (nats)
   /// Without viewpoints, thin walls must be at least this many range noise sigmas thick: thinner, a point's
   /// side of a wall is a guess and the fit's bound does not hold
   double min_wall_to_noise = 2.0;
@@ -110,6 +113,9 @@ bool seams_turn_onto_themselves(const std::vector<Vec3>& seam_points, const Verd
 /// seam error is how far the axis moves).
 std::vector<Vec3> seam_error_points(const std::vector<Vec3>& seam_points, const VerdictSetting& setting = {});
 
+/// A level direction of the part's frame in words: "x", "y", or "(a, b) direction" (sign as x >= 0).
+std::string part_direction_name(const Vec3& direction);
+
 /// What the verdict weighs.
 struct VerdictInput {
   Score score;                  ///< of the best pose
@@ -118,9 +124,11 @@ struct VerdictInput {
   double margin_llr = 0.0;      ///< without rays: log-likelihood ratio over the best fit welding elsewhere
   double rival_offset_m = 0.0;  ///< ... and how far it puts the seams (with rays: the strongest rival) [m]
   double rival_turn_rad = 0.0;  ///< with rays: the turn between the best and the strongest rival [rad]
-  double seam_error_bound_m = 0.0;  ///< 95 % bound on the seam error from the fit [m]
-  double yaw_bound_rad = 0.0;       ///< 95 % bound on the turn about the table normal [rad]
-  bool yaw_matters = true;          ///< false: the seams map onto themselves under turns (full circles)
+  double seam_error_bound_m = 0.0;           ///< 95 % bound on the seam error from the fit [m]
+  Vec3 bound_direction_part = Vec3::Zero();  ///< the direction it is widest in (part frame, level) ...
+  double bound_cells = 0.0;                  ///< ... and how many of the scan's cells hold the pose that way
+  double yaw_bound_rad = 0.0;                ///< 95 % bound on the turn about the table normal [rad]
+  bool yaw_matters = true;        ///< false: the seams map onto themselves under turns (full circles)
   double wall_offset_m = 0.0;     ///< without rays: median distance of the scan's walls from the model's [m]
   double level_offset_m = 0.0;    ///< ... and median height of its level faces above the model's [m]
   double wall_side_bias_m = 0.0;  ///< the part of the bound that allows for points on the wrong face [m]

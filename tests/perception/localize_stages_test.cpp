@@ -615,6 +615,25 @@ TEST(LocalizeStages, APartTheSweepReachedLittleOfIsJudgedByWhatItReached) {
   EXPECT_NE(verdict_reason(in).find("3 % of all of it"), std::string::npos) << verdict_reason(in);
 }
 
+TEST(LocalizeStages, ABoundTooWideOnAFewCellsNamesTheDirectionThatNeedsWalls) {
+  // Too wide along the part's x with 5 cells holding it there: the refusal names x and the walls facing it;
+  // with 40 cells, or within the tolerance, it does not.
+  VerdictInput in = passing_figures();
+  in.seam_error_bound_m = 0.0012;
+  in.bound_direction_part = Vec3(-1.0, 0.02, 0.0);
+  in.bound_cells = 5.0;
+  const std::string few = verdict_reason(in);
+  EXPECT_NE(few.find("along the part's x only about 5 small patches"), std::string::npos) << few;
+  EXPECT_NE(few.find("facing along its x"), std::string::npos) << few;
+  in.bound_cells = 40.0;
+  EXPECT_EQ(verdict_reason(in).find("along the part's"), std::string::npos) << verdict_reason(in);
+  in.bound_cells = 5.0;
+  in.seam_error_bound_m = 0.0008;
+  EXPECT_EQ(verdict_reason(in), "");
+  EXPECT_EQ(part_direction_name(Vec3(0.1, -0.99, 0.0)), "y");
+  EXPECT_EQ(part_direction_name(Vec3(-0.6, -0.8, 0.0)), "(0.60, 0.80) direction");
+}
+
 TEST(LocalizeStages, AnAmbiguousRefusalSaysWhatTheRivalWouldChange) {
   // A rival turned 35 deg about the seams' axis (a square plate under a round tube) welds in the same place;
   // one moved 2 mm along the part welds elsewhere. rival_offset measures both at the seams' points.
@@ -747,6 +766,8 @@ TEST(LocalizeStages, TheSeamErrorOfAFullCircleIsHowFarItsAxisMoves) {
   PoseUncertainty u;
   u.ok = true;
   u.covariance = Vec3(std::pow(deg2rad(1.0), 2), 1e-8, 1e-8).asDiagonal();
+  u.information_inverse = Mat3::Identity();  // held alike in every direction by 100 cells
+  u.cell_information.assign(100, 0.01 * Mat3::Identity());
   EXPECT_LT(seam_error_bound_m(u, axis), 0.0004);
   EXPECT_GT(seam_error_bound_m(u, circle), 0.0012);
 }
