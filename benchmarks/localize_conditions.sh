@@ -23,6 +23,7 @@ for c in default round_on_plate tube_tee offset_tube_on_plate rect_tee_flat pape
   cells+=("$here/scenes/cells/$c.yaml")
 done
 one="--sweep $here/scenes/sweeps/one_pass.yaml"
+two="--sweep $here/scenes/sweeps/two_passes.yaml"
 # The range noise of the seed paper's real scan: its table spreads 0.95 mm (the twin's default, 1.5 mm + 0.25 %
 # of the range, spreads 2.3 mm there; 1.4 mm flat spreads about 0.95 mm).
 real_noise="--lidar noise_sigma_m=0.0014 --lidar noise_sigma_rel=0"
@@ -34,6 +35,8 @@ conditions=(
   "one_pass_no_viewpoints|$one --no-viewpoints"
   "real_noise_eight_passes_no_viewpoints|$real_noise --no-viewpoints"
   "real_noise_one_pass_no_viewpoints|$real_noise $one --no-viewpoints"
+  "real_noise_one_pass|$real_noise $one"
+  "real_noise_two_passes|$real_noise $two"
   "part_off_cad|--part-deviation-mm 1 --tack-welds 2 --bend-deg 1"
   "stray_returns|--lidar stray_returns=1"
   "mount_error_calibrated|--mount-error-mm 5 --mount-error-deg 0.5 --calibrate"

@@ -54,8 +54,11 @@ PoseUncertainty pose_uncertainty(const std::vector<ResidualTerm>& terms, const P
       eig.eigenvectors() * eig.eigenvalues().cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
   out.covariance = Hi * B * Hi;
   out.information_inverse = Hi;
-  out.cell_information.reserve(info.size());
-  for (const auto& [key, Hc] : info) out.cell_information.push_back(Hc);
+  for (const auto& [key, Hc] : info) {
+    Eigen::Matrix<double, 6, 1> h;
+    h << Hc(0, 0), Hc(1, 1), Hc(2, 2), Hc(0, 1), Hc(0, 2), Hc(1, 2);
+    out.cell_information_moments += h * h.transpose();
+  }
   out.residual_sigma_m = std::sqrt(wr2 / wsum);
   // Design effect: the generalized eigenvalues of the sandwich against sigma^2 H^-1, i.e. of B against
   // sigma^2 H (B v = lambda sigma^2 H v), the largest.
@@ -70,11 +73,13 @@ PoseUncertainty pose_uncertainty(const std::vector<ResidualTerm>& terms, const P
 double effective_cells(const PoseUncertainty& u, const Vec3& c) {
   if (!u.ok) return 0.0;
   const Vec3 a = u.information_inverse * c;
-  const double total = c.dot(a);
+  const double total = c.dot(a);  // sum_g a^T H_g a
   if (!(total > 0.0)) return 0.0;
-  double sum2 = 0.0;
-  for (const Mat3& Hc : u.cell_information) sum2 += std::pow(a.dot(Hc * a) / total, 2);
-  return sum2 > 0.0 ? 1.0 / sum2 : 0.0;
+  // a^T H_g a = w . h_g, so sum_g (a^T H_g a)^2 = w^T (sum_g h_g h_g^T) w.
+  Eigen::Matrix<double, 6, 1> w;
+  w << a.x() * a.x(), a.y() * a.y(), a.z() * a.z(), 2 * a.x() * a.y(), 2 * a.x() * a.z(), 2 * a.y() * a.z();
+  const double sum2 = w.dot(u.cell_information_moments * w);
+  return sum2 > 0.0 ? total * total / sum2 : 0.0;
 }
 
 double confidence_scale2(double cells, const PoseUncertaintySetting& s) {
@@ -102,6 +107,17 @@ SeamBound seam_error_bound(const PoseUncertainty& u, const std::vector<Vec3>& po
   // A point p moves by (-theta p_y + x, theta p_x + y) under the perturbation (theta, x, y); over the
   // confidence ellipsoid xi^T Cov^-1 xi <= q its largest move along a unit v is sqrt(q v^T J Cov J^T v),
   // largest along the principal directions of J Cov J^T, with q from the cells that inform that move.
+  // The quantile for the whole count of cells below (fewer: wider, so never narrower than the exact one),
+  // each count's computed once.
+  constexpr int kCountedCells = 1000;  // more count as this many (the quantile within 0.1 % of many's)
+  std::vector<double> scale2(kCountedCells + 1, -1.0);
+  auto scale2_for = [&](double cells) {
+    const int n = static_cast<int>(std::floor(std::min<double>(cells + 1e-9, kCountedCells)));
+    if (n < 0) return std::numeric_limits<double>::infinity();
+    double& q = scale2[static_cast<size_t>(n)];
+    if (q < 0.0) q = confidence_scale2(n, s);
+    return q;
+  };
   double worst = 0.0;
   for (const Vec3& p : points) {
     const Eigen::Matrix<double, 2, 3> J = planar_move_jacobian(p);
@@ -109,7 +125,7 @@ SeamBound seam_error_bound(const PoseUncertainty& u, const std::vector<Vec3>& po
     for (int axis = 0; axis < 2; ++axis) {
       const Eigen::Vector2d v = eig.eigenvectors().col(axis);
       const double cells = effective_cells(u, J.transpose() * v);
-      const double reach2 = confidence_scale2(cells, s) * eig.eigenvalues()(axis);
+      const double reach2 = scale2_for(cells) * eig.eigenvalues()(axis);
       if (reach2 > worst) {
         worst = reach2;
         out.direction = v;

@@ -47,9 +47,10 @@ struct PoseUncertainty {
   /// How much wider the sandwich is than independent residuals of that RMS would make it (the largest
   /// eigenvalue of Cov_model^-1 Cov): >1 where neighbouring errors are shared.
   double design_effect = 1.0;
-  /// H^-1 and each cell's share of H = sum_i w_i J_i J_i^T: how many cells inform a given motion.
+  /// H^-1, and the second moments sum_g h_g h_g^T of the cells' shares H_g of H = sum_i w_i J_i J_i^T, each
+  /// as h_g = (H00, H11, H22, H01, H02, H12): how many cells inform a given motion (effective_cells).
   Mat3 information_inverse = Mat3::Zero();
-  std::vector<Mat3> cell_information;
+  Eigen::Matrix<double, 6, 6> cell_information_moments = Eigen::Matrix<double, 6, 6>::Zero();
 };
 
 /// The covariance of the fit whose final residuals are `terms`.

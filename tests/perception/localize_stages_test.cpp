@@ -767,7 +767,9 @@ TEST(LocalizeStages, TheSeamErrorOfAFullCircleIsHowFarItsAxisMoves) {
   u.ok = true;
   u.covariance = Vec3(std::pow(deg2rad(1.0), 2), 1e-8, 1e-8).asDiagonal();
   u.information_inverse = Mat3::Identity();  // held alike in every direction by 100 cells
-  u.cell_information.assign(100, 0.01 * Mat3::Identity());
+  Eigen::Matrix<double, 6, 1> h;
+  h << 0.01, 0.01, 0.01, 0.0, 0.0, 0.0;
+  u.cell_information_moments = 100 * h * h.transpose();
   EXPECT_LT(seam_error_bound_m(u, axis), 0.0004);
   EXPECT_GT(seam_error_bound_m(u, circle), 0.0012);
 }
