@@ -63,7 +63,7 @@ PoseUncertainty pose_uncertainty(const std::vector<ResidualTerm>& terms,
 double effective_cells(const PoseUncertainty& u, const Vec3& c);
 
 /// The squared scale of the bounds' confidence region when `cells` cells inform the direction bounded:
-/// chi-square's 3-dof quantile at the setting's confidence for many cells (+inf: the large-sample region),
+/// chi-square's 3-dof quantile at the setting's confidence for many cells (cells = +inf gives exactly it),
 /// widened as they become few by how much Student's t with cells - 1 degrees of freedom widens a two-sided
 /// interval over the normal's (a spread estimated from a few cells' sums is itself uncertain; 4.0 sd for 5
 /// cells, 3.0 for 20, against 2.8). +inf for 2 cells or fewer.
@@ -73,7 +73,8 @@ double confidence_scale2(double cells, const PoseUncertaintySetting& setting = {
 Eigen::Matrix<double, 2, 3> planar_move_jacobian(const Vec3& p);
 
 /// The largest displacement of any of `points` (part frame) within the 95 % confidence region of `u`: a
-/// bound on the seam error when the points are the seams.
+/// bound on the seam error when the points are the seams. Each point's two principal directions of move take
+/// the quantile of the cells that hold the pose along them (their count rounded down: never narrower).
 struct SeamBound {
   double bound_m = std::numeric_limits<double>::infinity();  ///< +inf when `u` is not ok [m]
   Eigen::Vector2d direction = Eigen::Vector2d::Zero();       ///< of that displacement (part frame, unit)
