@@ -28,7 +28,7 @@ PoseUncertainty pose_uncertainty(const std::vector<ResidualTerm>& terms, const P
   PoseUncertainty out;
   Mat3 H = Mat3::Zero();
   std::unordered_map<long long, Vec3> g, unseen;
-  std::unordered_map<long long, Mat3> info;
+  std::unordered_map<long long, Eigen::Matrix<double, 6, 1>> info;  // each cell's H_g as h_g
   double wr2 = 0.0, wsum = 0.0;
   for (const ResidualTerm& t : terms) {
     if (t.w <= 0.0) continue;
@@ -37,7 +37,10 @@ PoseUncertainty pose_uncertainty(const std::vector<ResidualTerm>& terms, const P
     wsum += t.w;
     auto it = g.try_emplace(cell_key(t.at, s.cluster_cell_m), Vec3::Zero()).first;
     it->second += t.w * t.r * t.J;
-    info.try_emplace(it->first, Mat3::Zero()).first->second += t.w * t.J * t.J.transpose();
+    Eigen::Matrix<double, 6, 1> h;
+    h << t.J.x() * t.J.x(), t.J.y() * t.J.y(), t.J.z() * t.J.z(), t.J.x() * t.J.y(), t.J.x() * t.J.z(),
+        t.J.y() * t.J.z();
+    info.try_emplace(it->first, Eigen::Matrix<double, 6, 1>::Zero()).first->second += t.w * h;
     if (t.unseen_sigma_m > 0.0)
       unseen.try_emplace(it->first, Vec3::Zero()).first->second += t.w * t.unseen_sigma_m * t.J;
   }
@@ -54,11 +57,7 @@ PoseUncertainty pose_uncertainty(const std::vector<ResidualTerm>& terms, const P
       eig.eigenvectors() * eig.eigenvalues().cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
   out.covariance = Hi * B * Hi;
   out.information_inverse = Hi;
-  for (const auto& [key, Hc] : info) {
-    Eigen::Matrix<double, 6, 1> h;
-    h << Hc(0, 0), Hc(1, 1), Hc(2, 2), Hc(0, 1), Hc(0, 2), Hc(1, 2);
-    out.cell_information_moments += h * h.transpose();
-  }
+  for (const auto& [key, h] : info) out.cell_information_moments += h * h.transpose();
   out.residual_sigma_m = std::sqrt(wr2 / wsum);
   // Design effect: the generalized eigenvalues of the sandwich against sigma^2 H^-1, i.e. of B against
   // sigma^2 H (B v = lambda sigma^2 H v), the largest.
@@ -113,7 +112,6 @@ SeamBound seam_error_bound(const PoseUncertainty& u, const std::vector<Vec3>& po
   std::vector<double> scale2(kCountedCells + 1, -1.0);
   auto scale2_for = [&](double cells) {
     const int n = static_cast<int>(std::floor(std::min<double>(cells + 1e-9, kCountedCells)));
-    if (n < 0) return std::numeric_limits<double>::infinity();
     double& q = scale2[static_cast<size_t>(n)];
     if (q < 0.0) q = confidence_scale2(n, s);
     return q;

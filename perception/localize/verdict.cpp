@@ -293,22 +293,22 @@ std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
     return "the scan holds nothing that fixes the part's place in some direction (its walls facing that way "
            "were not seen, or only at grazing incidence): sweep again so that the LiDAR sees more of the "
            "part's walls";
-  if (!(in.seam_error_bound_m <= tol) && in.bound_cells > 0.0 && in.bound_cells < s.few_cells) {
-    const std::string along = part_direction_name(in.bound_direction_part);
-    std::snprintf(
-        buf, sizeof buf,
-        "the pose is uncertain by up to %.2f mm %s (95 %%; tolerance %.2f mm): along the part's %s "
-        "only about %.0f small patches of its walls hold it (those facing that way were barely seen): sweep "
-        "again so that the LiDAR sees the part's walls facing along its %s",
-        1e3 * in.seam_error_bound_m, where, 1e3 * tol, along.c_str(), in.bound_cells, along.c_str());
-    return buf;
-  }
   if (!(in.seam_error_bound_m <= tol)) {
-    std::snprintf(
-        buf, sizeof buf,
-        "the pose is uncertain by up to %.2f mm %s (95 %%; tolerance %.2f mm): sweep again so that the "
-        "LiDAR sees more of the part's walls",
-        1e3 * in.seam_error_bound_m, where, 1e3 * tol);
+    // Where few cells hold the pose in the bound's direction, the walls facing that way were barely seen.
+    std::string advice = "sweep again so that the LiDAR sees more of the part's walls";
+    if (in.bound_cells > 0.0 && in.bound_cells < s.few_cells) {
+      const std::string along = part_direction_name(in.bound_direction_part);
+      char few[300];
+      std::snprintf(
+          few, sizeof few,
+          "along the part's %s only about %.0f small patches of its walls hold it (those facing that "
+          "way were barely seen): sweep again so that the LiDAR sees the part's walls facing along "
+          "its %s",
+          along.c_str(), in.bound_cells, along.c_str());
+      advice = few;
+    }
+    std::snprintf(buf, sizeof buf, "the pose is uncertain by up to %.2f mm %s (95 %%; tolerance %.2f mm): %s",
+                  1e3 * in.seam_error_bound_m, where, 1e3 * tol, advice.c_str());
     return buf;
   }
   if (in.yaw_matters && !(in.yaw_bound_rad <= deg2rad(s.yaw_tolerance_deg))) {
