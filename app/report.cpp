@@ -223,6 +223,7 @@ nlohmann::json report_json(const RunRecord& run) {
   j["T_base_part_true"] = transform_json(run.layout->T_base_part);
   j["clamps"] = run.layout->clamps.size();
   j["scan_points"] = run.cloud.size();
+  j["sweeps"] = run.sweeps;
   if (run.pose) {
     j["localization"] = {{"found", run.pose->found},
                          {"reason", run.pose->reason},

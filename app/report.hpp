@@ -25,7 +25,8 @@ struct RunRecord {
   const PartSpec* part = nullptr;
   const CellLayout* layout = nullptr;
   const MujocoWorld* world = nullptr;
-  std::vector<Vec3> cloud;          ///< base frame
+  std::vector<Vec3> cloud;          ///< base frame, of every sweep
+  std::vector<std::string> sweeps;  ///< the sweep programs swept, in order (a second: the cell's rescan)
   std::vector<Label> cloud_labels;  ///< truth, per point
   const PoseEstimate* pose = nullptr;
   std::optional<PoseError> pose_error;  ///< against the truth, when known (the twin made the scan)

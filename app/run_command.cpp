@@ -5,6 +5,7 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 
 #include "app/json_file.hpp"
 #include "app/mount_file.hpp"
@@ -127,50 +128,61 @@ int run_job(const RunCommand& cmd) {
   say(step(0, ""), buf);
   stage_done("setup");
 
-  // 1. The sweep.
-  SimScanInputs sim;
-  sim.world = &world;
-  sim.robot = &twin.real_robot;
-  sim.program = &program;
-  sim.lidar = lidar;
-  sim.options.threads = cmd.threads;
-  LiveScanInputs live_inputs;
-  live_inputs.driver = driver.get();
-  live_inputs.program = &program;
-  ScanLog log;
-  const std::unique_ptr<ScanSource> source = make_scan_source(cmd.source, robot, sim, live_inputs);
-  if (live) {
-    connect();
-    say(step(1, "scan"), "sweeping with " + source->describe() + " on " + driver->describe() + " (" +
-                             std::to_string(static_cast<int>(program.duration_s())) +
-                             " s; Ctrl-C stops the arm)");
-    const StopOnSigint stop_on_sigint;
-    try {
+  // 1. The sweep (and, where the cell has one, the rescan): each kept as a log, assembled into the cloud.
+  // Every run keeps its sweeps: `--source log:DIR/scan.scanlog` replays the first.
+  const bool from_log = cmd.source.rfind("log:", 0) == 0;
+  std::vector<Vec3> viewpoints;  // of run.cloud's points
+  auto sweep = [&](const SweepProgram& sweep_program, uint64_t lidar_seed, const char* log_name,
+                   const char* stage_name, const std::string& stage) -> std::optional<int> {
+    SimScanInputs sim;
+    sim.world = &world;
+    sim.robot = &twin.real_robot;
+    sim.program = &sweep_program;
+    sim.lidar = lidar;
+    sim.lidar.seed = lidar_seed;
+    sim.options.threads = cmd.threads;
+    LiveScanInputs live_inputs;
+    live_inputs.driver = driver.get();
+    live_inputs.program = &sweep_program;
+    ScanLog log;
+    const std::unique_ptr<ScanSource> source = make_scan_source(cmd.source, robot, sim, live_inputs);
+    if (live) {
+      connect();
+      say(stage, "sweeping with " + source->describe() + " on " + driver->describe() + " (" +
+                     std::to_string(static_cast<int>(sweep_program.duration_s())) +
+                     " s; Ctrl-C stops the arm)");
+      const StopOnSigint stop_on_sigint;
+      try {
+        log = source->acquire();
+      } catch (const RobotError& e) {
+        std::printf("FAIL: robot during the sweep: %s\n", e.what());
+        return g_stop_requested ? kExitInterrupted : kExitUntrustworthy;
+      }
+    } else {
       log = source->acquire();
-    } catch (const RobotError& e) {
-      std::printf("FAIL: robot during the sweep: %s\n", e.what());
-      return g_stop_requested ? kExitInterrupted : kExitUntrustworthy;
     }
-  } else {
-    log = source->acquire();
-  }
-  log.write(cmd.out +
-            "/scan.scanlog");  // every run keeps its sweep: `--source log:DIR/scan.scanlog` replays it
-  AssembledCloud cloud;
-  try {
-    cloud = assemble_scan(log, assembly);
-  } catch (const std::invalid_argument& e) {  // a log of another robot
-    throw input_error(cmd.source, e.what());
-  }
-  write_pcd(cmd.out + "/scan.pcd", cloud.points_base, false, &cloud.viewpoints_base);
-  run.cloud = cloud.points_base;
-  const std::vector<Label> labels = source->labels();
-  if (!labels.empty())
-    for (uint32_t k : cloud.sample_index) run.cloud_labels.push_back(labels[k]);
-  const double sweep_s = log.samples.empty() ? 0.0 : log.samples.back().t_s - log.samples.front().t_s;
-  std::snprintf(buf, sizeof buf, "%.1f s sweep from %s, %zu points (%.2f s)", sweep_s,
-                source->describe().c_str(), cloud.points_base.size(), stage_done("sweep"));
-  say(step(1, "scan"), buf);
+    log.write(cmd.out + "/" + log_name + ".scanlog");
+    run.sweeps.push_back(sweep_program.source());
+    AssembledCloud cloud;
+    try {
+      cloud = assemble_scan(log, assembly);
+    } catch (const std::invalid_argument& e) {  // a log of another robot
+      throw input_error(cmd.source, e.what());
+    }
+    run.cloud.insert(run.cloud.end(), cloud.points_base.begin(), cloud.points_base.end());
+    viewpoints.insert(viewpoints.end(), cloud.viewpoints_base.begin(), cloud.viewpoints_base.end());
+    const std::vector<Label> labels = source->labels();
+    if (!labels.empty())
+      for (uint32_t k : cloud.sample_index) run.cloud_labels.push_back(labels[k]);
+    write_pcd(cmd.out + "/scan.pcd", run.cloud, false, &viewpoints);
+    const double sweep_s = log.samples.empty() ? 0.0 : log.samples.back().t_s - log.samples.front().t_s;
+    std::snprintf(buf, sizeof buf, "%.1f s sweep from %s, %zu points (%.2f s)", sweep_s,
+                  source->describe().c_str(), cloud.points_base.size(), stage_done(stage_name));
+    say(stage, buf);
+    return std::nullopt;
+  };
+  if (const std::optional<int> stopped = sweep(program, lidar.seed, "scan", "sweep", step(1, "scan")))
+    return *stopped;
 
   // 2-4. Find the part, plan its seams, replay the plan: judged against the truth where the twin made the
   // scan. The plan starts from where the arm stands when a real one is to execute it.
@@ -228,8 +240,21 @@ int run_job(const RunCommand& cmd) {
       }
     }
   };
-  const WeldPipelineResult result =
-      weld_pipeline(cloud.points_base, cloud.viewpoints_base, job, WeldPipelineSetting(), hooks);
+  WeldPipelineResult result = weld_pipeline(run.cloud, viewpoints, job, WeldPipelineSetting(), hooks);
+  // Not found in the first sweep: the cell's rescan (a pass from another side), and the part sought in both.
+  if (!result.pose.found && twin_cell.rescan) {
+    const std::string stage = step(1, "rescan");
+    if (from_log) {
+      say(stage, "not swept again: the sweep came from a log (the cell's rescan needs the arm or the twin)");
+    } else {
+      say(stage, "the part was not found in the sweep: sweeping " + twin_cell.rescan->source() +
+                     " too, and seeking it in both");
+      if (const std::optional<int> stopped =
+              sweep(*twin_cell.rescan, lidar.seed + kRescanLidarSeedOffset, "rescan", "rescan", stage))
+        return *stopped;
+      result = weld_pipeline(run.cloud, viewpoints, job, WeldPipelineSetting(), hooks);
+    }
+  }
   const PoseEstimate& pose = result.pose;
   run.pose = &pose;
   if (result.pose_error) run.pose_error = *result.pose_error;

@@ -109,6 +109,7 @@ struct Trial {
   PoseError ours_err, paper_err;
   std::vector<std::pair<std::string, PoseEstimate>> impostors;  // must all be refused
   size_t points = 0;
+  bool rescanned = false;  ///< ours refused the first sweep, and the rescan was swept
   // Ours' position error in the base frame: along the line from the robot's base axis to the part (negative:
   // towards the robot, where the LiDAR looks from) and across it (counter-clockwise) [m].
   double radial_m = 0.0, tangential_m = 0.0;
@@ -182,7 +183,14 @@ int main(int argc, char** argv) {
   bool no_viewpoints = false;
   std::string sweep_file;
   double mount_error_mm = 0.0, mount_error_deg = 0.0, part_deviation_mm = 0.0;
-  app.add_option("--sweep", sweep_file, "sweep program for every cell (default: each cell's own)");
+  app.add_option(
+      "--sweep", sweep_file,
+      "sweep program for every cell (default: each cell's own; it replaces the cell's rescan too)");
+  std::string rescan_file;
+  app.add_option(
+      "--rescan", rescan_file,
+      "where the part is refused, sweep this program too (it starts where the sweep ends) and seek "
+      "the part in both sweeps, as a cell with `rescan:` does (default: the cell's own, if any)");
   app.add_option(
       "--mount-error-mm", mount_error_mm,
       "the LiDAR mount off by a seeded draw, sigma per axis [mm] (the scan assembled with the nominal)");
@@ -253,7 +261,7 @@ int main(int argc, char** argv) {
     if (cells.empty()) return real_failed ? 3 : 0;
     std::vector<PartData> parts;
     for (const std::string& f : cells) {
-      PartData d{f, TwinCell(CellSpec::load(f), sweep_file), nullptr};
+      PartData d{f, TwinCell(CellSpec::load(f), sweep_file, rescan_file), nullptr};
       d.prepared = std::make_shared<const PreparedPart>(d.twin.mesh);
       std::fprintf(stderr, "%s: z symmetry order %d\n", d.twin.part.name.c_str(), d.twin.symmetry);
       parts.push_back(std::move(d));
@@ -291,68 +299,92 @@ int main(int argc, char** argv) {
       t.part = i / static_cast<size_t>(layouts);
       t.seed = seed0 + i % static_cast<size_t>(layouts);
       const PartData& d = parts[t.part];
-      Scan scan;
-      const std::string file = cache.empty()
-                                   ? ""
-                                   : cache + "/" + d.twin.part.name + "-" + std::to_string(t.seed) +
-                                         (noise_free ? "-exact" : "") + lidar_key + condition_key + ".scan";
-      if (file.empty() || !read_cache(file, scan)) {
-        const CellLayout layout = make_layout(d.twin.cell, d.twin.part, t.seed);
-        // The real part may differ from its CAD: the twin's part off in each extent, with tack welds, bent
-        // (the seams and the model stay the CAD's).
-        PartSpec twin_part = d.twin.part;
-        std::string deviated_mesh;
-        if (deviation.any()) {
-          deviated_mesh = (std::filesystem::temp_directory_path() /
-                           ("weldtwin_survey_" + d.twin.part.name + "_" + std::to_string(t.seed) + ".stl"))
-                              .string();
-          write_stl(deviate_part(d.twin.mesh, d.twin.seam_points, deviation, t.seed).mesh, deviated_mesh,
-                    "weldtwin survey: a part off its CAD");
-          twin_part.mesh_path = deviated_mesh;
+      // The cell's sweep by `program` (the LiDAR's noise drawn from `lidar_seed`), or its cached copy.
+      auto sweep_scan = [&](const SweepProgram& program, uint64_t lidar_seed, const std::string& key) {
+        Scan scan;
+        const std::string file = cache.empty() ? ""
+                                               : cache + "/" + d.twin.part.name + "-" +
+                                                     std::to_string(t.seed) + (noise_free ? "-exact" : "") +
+                                                     lidar_key + condition_key + key + ".scan";
+        if (file.empty() || !read_cache(file, scan)) {
+          const CellLayout layout = make_layout(d.twin.cell, d.twin.part, t.seed);
+          // The real part may differ from its CAD: the twin's part off in each extent, with tack welds, bent
+          // (the seams and the model stay the CAD's).
+          PartSpec twin_part = d.twin.part;
+          std::string deviated_mesh;
+          if (deviation.any()) {
+            deviated_mesh = (std::filesystem::temp_directory_path() /
+                             ("weldtwin_survey_" + d.twin.part.name + "_" + std::to_string(t.seed) + ".stl"))
+                                .string();
+            write_stl(deviate_part(d.twin.mesh, d.twin.seam_points, deviation, t.seed).mesh, deviated_mesh,
+                      "weldtwin survey: a part off its CAD");
+            twin_part.mesh_path = deviated_mesh;
+          }
+          // An uncalibrated LiDAR mount: the twin (its MuJoCo model and its sweep) holds the LiDAR off by a
+          // seeded draw, the scan is assembled with the nominal mount.
+          const Iso3 mount_delta = mount_error(t.seed, 1e-3 * mount_error_mm, deg2rad(mount_error_deg));
+          const TwinScene twin(d.twin, layout, mount_delta, &twin_part);
+          const RobotModel& real_robot = twin.real_robot;
+          const MujocoWorld& world = twin.world;
+          if (!deviated_mesh.empty()) std::filesystem::remove(deviated_mesh);
+          LidarSetting lidar = noise_free ? LidarSetting().noise_free() : LidarSetting();
+          lidar.seed = lidar_seed;
+          lidar.apply(lidar_overrides, "--lidar");
+          SweepOptions opt;
+          opt.threads = jobs > 1 ? 1 : 0;
+          const SweepResult r = simulate_sweep(world, real_robot, program, lidar, opt);
+          // Assembled with the URDF's mount, or with the one the calibration cell's sweep found.
+          RobotModel assembly = robot;
+          if (calibration) {
+            const MountCalibration cal = calibrate_in_twin(*calibration, real_robot, robot, t.seed + 1, opt);
+            assembly = robot.with_mount_offset("lidar", cal.delta);
+            calibration_error_mm[i] = 1e3 * (cal.delta.translation() - mount_delta.translation()).norm();
+          }
+          const AssembledCloud cloud = assemble_scan(r.log, assembly);
+          scan.points = cloud.points_base;
+          scan.viewpoints = cloud.viewpoints_base;
+          for (uint32_t s : cloud.sample_index) scan.labels.push_back(static_cast<uint8_t>(r.labels[s]));
+          scan.truth = layout.T_base_part;
+          round_as_cached(scan);
+          if (!file.empty()) write_cache(file, scan);
         }
-        // An uncalibrated LiDAR mount: the twin (its MuJoCo model and its sweep) holds the LiDAR off by a
-        // seeded draw, the scan is assembled with the nominal mount.
-        const Iso3 mount_delta = mount_error(t.seed, 1e-3 * mount_error_mm, deg2rad(mount_error_deg));
-        const TwinScene twin(d.twin, layout, mount_delta, &twin_part);
-        const RobotModel& real_robot = twin.real_robot;
-        const MujocoWorld& world = twin.world;
-        if (!deviated_mesh.empty()) std::filesystem::remove(deviated_mesh);
-        const SweepProgram& program = d.twin.program;
-        LidarSetting lidar = noise_free ? LidarSetting().noise_free() : LidarSetting();
-        lidar.seed = t.seed;
-        lidar.apply(lidar_overrides, "--lidar");
-        SweepOptions opt;
-        opt.threads = jobs > 1 ? 1 : 0;
-        const SweepResult r = simulate_sweep(world, real_robot, program, lidar, opt);
-        // Assembled with the URDF's mount, or with the one the calibration cell's sweep found.
-        RobotModel assembly = robot;
-        if (calibration) {
-          const MountCalibration cal = calibrate_in_twin(*calibration, real_robot, robot, t.seed + 1, opt);
-          assembly = robot.with_mount_offset("lidar", cal.delta);
-          calibration_error_mm[i] = 1e3 * (cal.delta.translation() - mount_delta.translation()).norm();
-        }
-        const AssembledCloud cloud = assemble_scan(r.log, assembly);
-        scan.points = cloud.points_base;
-        scan.viewpoints = cloud.viewpoints_base;
-        for (uint32_t s : cloud.sample_index) scan.labels.push_back(static_cast<uint8_t>(r.labels[s]));
-        scan.truth = layout.T_base_part;
-        round_as_cached(scan);
-        if (!file.empty()) write_cache(file, scan);
-      }
+        if (no_viewpoints) scan.viewpoints.clear();
+        return scan;
+      };
+      Scan scan = sweep_scan(d.twin.program, t.seed, "");
       t.points = scan.points.size();
       scan_truth_of[i] = scan.truth;
-      if (no_viewpoints) scan.viewpoints.clear();
-      {
+      auto find_ours = [&](const Scan& in) {
         WeldJob job;
         job.cell = &d.twin;
         job.prepared = d.prepared.get();
-        job.T_base_part_twin = scan.truth;
+        job.T_base_part_twin = in.truth;
         job.truth_known = true;
         WeldPipelineSetting find_only;
         find_only.plan = false;
-        const WeldPipelineResult found = weld_pipeline(scan.points, scan.viewpoints, job, find_only);
+        const WeldPipelineResult found = weld_pipeline(in.points, in.viewpoints, job, find_only);
         t.ours = found.pose;
         t.ours_err = *found.pose_error;
+      };
+      find_ours(scan);
+      // Both sweeps, made once it is needed: where the part (or an impostor) is refused in the first sweep,
+      // a cell with a rescan sweeps it and seeks the part in both.
+      std::optional<Scan> both;
+      auto both_sweeps = [&]() -> const Scan& {
+        if (!both) {
+          both = scan;
+          const Scan more =
+              sweep_scan(*d.twin.rescan, t.seed + kRescanLidarSeedOffset,
+                         "-rescan=" + std::filesystem::path(d.twin.rescan->source()).stem().string());
+          both->points.insert(both->points.end(), more.points.begin(), more.points.end());
+          both->labels.insert(both->labels.end(), more.labels.begin(), more.labels.end());
+          both->viewpoints.insert(both->viewpoints.end(), more.viewpoints.begin(), more.viewpoints.end());
+        }
+        return *both;
+      };
+      if (!t.ours.found && d.twin.rescan) {
+        t.rescanned = true;
+        find_ours(both_sweeps());
       }
       if (!no_paper) {
         t.paper = localize_paper(scan.points, d.twin.mesh);
@@ -360,26 +392,33 @@ int main(int argc, char** argv) {
       }
       if (!no_impostors &&
           (impostor_layouts < 0 || t.seed < seed0 + static_cast<uint64_t>(impostor_layouts))) {
-        std::vector<Vec3> absent, absent_vp;
-        for (size_t k = 0; k < scan.points.size(); ++k)
-          if (scan.labels[k] != static_cast<uint8_t>(Label::kPart)) {
-            absent.push_back(scan.points[k]);
-            if (!scan.viewpoints.empty()) absent_vp.push_back(scan.viewpoints[k]);
-          }
-        t.impostors.emplace_back("absent", localize(absent, *d.prepared, localize_setting_for(d.twin.part),
-                                                    d.twin.seam_points, absent_vp));
+        // Each refused in the first sweep is sought again in both, where the cell has a rescan.
+        auto seek = [&](const Scan& in, const PartData& sought, bool part_absent) {
+          std::vector<Vec3> points, viewpoints;
+          for (size_t k = 0; k < in.points.size(); ++k)
+            if (!part_absent || in.labels[k] != static_cast<uint8_t>(Label::kPart)) {
+              points.push_back(in.points[k]);
+              if (!in.viewpoints.empty()) viewpoints.push_back(in.viewpoints[k]);
+            }
+          return localize(points, *sought.prepared, localize_setting_for(sought.twin.part),
+                          sought.twin.seam_points, viewpoints);
+        };
+        auto impostor = [&](const std::string& what, const PartData& sought, bool part_absent) {
+          PoseEstimate p = seek(scan, sought, part_absent);
+          if (!p.found && d.twin.rescan) p = seek(both_sweeps(), sought, part_absent);
+          t.impostors.emplace_back(what, p);
+        };
+        impostor("absent", d, true);
         for (const PartData& o : parts)
-          if (o.twin.part.name != d.twin.part.name)
-            t.impostors.emplace_back(o.twin.part.name,
-                                     localize(scan.points, *o.prepared, localize_setting_for(o.twin.part),
-                                              o.twin.seam_points, scan.viewpoints));
+          if (o.twin.part.name != d.twin.part.name) impostor(o.twin.part.name, o, false);
       }
       std::lock_guard<std::mutex> lock(io);
       ++done;
       if (calibration_error_mm[i] >= 0)
         std::fprintf(stderr, "[calibrated mount %.2f mm off] ", calibration_error_mm[i]);
-      std::fprintf(stderr, "[%zu/%zu] %s seed %llu: ours %s %.3f mm %.3f deg %.2f s", done.load(),
+      std::fprintf(stderr, "[%zu/%zu] %s seed %llu: ours %s%s %.3f mm %.3f deg %.2f s", done.load(),
                    trials.size(), d.twin.part.name.c_str(), static_cast<unsigned long long>(t.seed),
+                   t.rescanned ? "(rescanned) " : "",
                    t.ours.found ? "found" : ("refused (" + t.ours.reason + ")").c_str(),
                    1e3 * t.ours_err.seam_max_m, rad2deg(t.ours_err.rotation_rad), t.ours.seconds);
       if (!no_paper)
@@ -427,7 +466,8 @@ int main(int argc, char** argv) {
       std::ofstream out(csv);
       out << "part,seed,points,ours_found,ours_reason,ours_seam_max_mm,ours_seam_mean_mm,ours_rot_deg,ours_s,"
              "paper_seam_max_mm,paper_rot_deg,paper_s,false_accepts,ours_radial_mm,ours_tangential_mm,"
-             "ours_bound_mm,ours_passes,ours_pass_apart_mm,ours_pass_excess_mm,ours_bound_cells\n";
+             "ours_bound_mm,ours_passes,ours_pass_apart_mm,ours_pass_excess_mm,ours_bound_cells,ours_"
+             "rescanned\n";
       for (const Trial& t : trials) {
         int fa = 0;
         for (const auto& im : t.impostors) fa += im.second.found;
@@ -438,7 +478,7 @@ int main(int argc, char** argv) {
             << rad2deg(t.paper_err.rotation_rad) << ',' << t.paper.seconds << ',' << fa << ','
             << 1e3 * t.radial_m << ',' << 1e3 * t.tangential_m << ',' << 1e3 * t.ours.seam_error_bound_m
             << ',' << t.ours.passes_fitted << ',' << 1e3 * t.ours.pass_apart_m << ','
-            << 1e3 * t.ours.pass_excess_m << ',' << t.ours.bound_cells << '\n';
+            << 1e3 * t.ours.pass_excess_m << ',' << t.ours.bound_cells << ',' << t.rescanned << '\n';
       }
     }
     std::printf("%-15s %7s %9s %8s %8s %8s %8s %8s %9s %9s %8s\n", "part (method)", "trials", "success",
@@ -477,6 +517,19 @@ int main(int argc, char** argv) {
         "absent/wrong-part "
         "cases\n",
         total_false, total_impostors);
+    if (parts.front().twin.rescan) {
+      int rescans = 0;
+      double sweep_s = 0.0;
+      for (const Trial& t : trials) {
+        const TwinCell& c = parts[t.part].twin;
+        rescans += t.rescanned;
+        sweep_s += c.program.duration_s() + (t.rescanned ? c.rescan->duration_s() : 0.0);
+      }
+      std::printf(
+          "ours rescanned %d of %zu cells (sweep %.0f s, rescan %.0f s): %.1f s of sweeping per cell\n",
+          rescans, trials.size(), parts.front().twin.program.duration_s(),
+          parts.front().twin.rescan->duration_s(), sweep_s / std::max<size_t>(1, trials.size()));
+    }
     // A bias shows as a mean position error with a small spread: its direction says where it comes from
     // (radial: towards or away from the robot, which the LiDAR looks from).
     for (size_t p = 0; p < parts.size(); ++p) {

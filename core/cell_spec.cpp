@@ -161,6 +161,7 @@ CellSpec parse(const std::string& file) {
   cell.environment_mjcf = existing(file, root, "environment");
   parse_robot(root, file, cell);
   cell.sweep_program = existing(file, root, "sweep");
+  if (root["rescan"]) cell.rescan_program = existing(file, root, "rescan");
 
   if (const YAML::Node t = root["table"]) {
     cell.table.x_min_m = yaml::length(t, "x_min", file);

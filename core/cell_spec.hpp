@@ -84,7 +84,10 @@ struct CellSpec {
       robot_package_dirs;            ///< resolved folders where `package://NAME` is also looked for
   std::vector<ToolingLink> tooling;  ///< added to the robot, parents first
   std::string sweep_program;         ///< resolved path
-  std::string part_spec;             ///< resolved path
+  /// Resolved path, or "": the program swept when the part is not found in the first sweep (a pass from
+  /// another side; it starts where the sweep program ends), and the part sought again in both sweeps
+  std::string rescan_program;
+  std::string part_spec;  ///< resolved path
   TableSpec table;
   PlacementSpec placement;
   std::optional<PartPose> part_pose;  ///< unset: drawn from the seed

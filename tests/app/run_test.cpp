@@ -18,11 +18,11 @@ namespace {
 
 std::string g_cell;
 
-nlohmann::json run_seed(int seed, int& exit_code) {
+nlohmann::json run_seed(int seed, int& exit_code, const std::string& tag = "") {
   // One directory per cell and seed: the three run tests go side by side (ctest -j), and two processes
   // writing the same scan.pcd (PCL writes it through mmap) end one of them with SIGBUS.
   const std::string cell = std::filesystem::path(g_cell).stem().string();
-  const std::string dir = ::testing::TempDir() + "weldtwin_run_" + cell + "_" + std::to_string(seed);
+  const std::string dir = ::testing::TempDir() + "weldtwin_run_" + cell + tag + "_" + std::to_string(seed);
   const std::string cmd = std::string(WELDTWIN_BINARY) + " run " + weldtwin::test::repo(g_cell) + " --seed " +
                           std::to_string(seed) + " --out " + dir +
                           " --no-renders --no-guidance -q --threads 1 > " + dir + ".stdout 2>&1";
@@ -67,6 +67,32 @@ TEST(Run, VerdictAgreesWithTheFiguresOnTenSeededCells) {
         << "seed " << seed;
   }
   std::printf("%s: %d of 10 seeded cells PASS\n", g_cell.c_str(), passed);
+}
+
+// A cell with a rescan (scenes/cells/quick_sweep.yaml, one pass and its crossing pass): swept again only
+// where the part is not found in the first sweep, and then sought in both. Seeds 1 and 9 of its part at
+// the real scan's noise (benchmarks/localize_survey with --sweep one_pass.yaml --rescan crossing_pass.yaml):
+// found in the first sweep, and found only in both.
+TEST(Run, ACellsRescanIsSweptOnlyWhenThePartIsNotFoundInTheFirstSweep) {
+  for (const int seed : {1, 9}) {
+    int code = -1;
+    const nlohmann::json r = run_seed(seed, code, "_rescan");
+    ASSERT_TRUE(r.is_object()) << "seed " << seed << ": no report.json (exit " << code << ")";
+    const std::string dir = ::testing::TempDir() + "weldtwin_run_quick_sweep_rescan_" + std::to_string(seed);
+    const bool rescanned = seed == 9;
+    ASSERT_EQ(r["sweeps"].size(), rescanned ? 2u : 1u) << "seed " << seed << ": " << r["sweeps"];
+    EXPECT_NE(r["sweeps"][0].get<std::string>().find("one_pass.yaml"), std::string::npos);
+    EXPECT_EQ(std::filesystem::exists(dir + "/rescan.scanlog"), rescanned) << "seed " << seed;
+    EXPECT_TRUE(r["localization"]["found"].get<bool>()) << "seed " << seed << ": " << r["reasons"];
+    EXPECT_LT(r["localization"]["seam_error_max_m"].get<double>(), 0.001) << "seed " << seed;
+    if (rescanned) {
+      EXPECT_NE(r["sweeps"][1].get<std::string>().find("crossing_pass.yaml"), std::string::npos);
+      // The part is sought in both sweeps: the scan holds the points of both (about 68 k each).
+      EXPECT_GT(r["scan_points"].get<int>(), 120000) << "seed " << seed;
+    } else {
+      EXPECT_LT(r["scan_points"].get<int>(), 80000) << "seed " << seed;
+    }
+  }
 }
 
 }  // namespace

@@ -207,6 +207,17 @@ TEST(CellSpec, DefaultCellLoadsAndBadOnesAreRejected) {
                               "\nsweep: " + test::repo("scenes/sweeps/default.yaml") + "\n";
   EXPECT_NE(input_error_of([&] { CellSpec::load(write_temp("c2.yaml", ok_head)); }).find("part"),
             std::string::npos);
+  // A rescan is optional; named, its file must exist.
+  EXPECT_TRUE(cell.rescan_program.empty());
+  const std::string part = "part: {spec: " + test::repo("scenes/parts/tube_tee.yaml") + "}\n";
+  EXPECT_EQ(CellSpec::load(write_temp("c4.yaml", ok_head + part + "rescan: " +
+                                                     test::repo("scenes/sweeps/crossing_pass.yaml") + "\n"))
+                .rescan_program,
+            test::repo("scenes/sweeps/crossing_pass.yaml"));
+  EXPECT_NE(input_error_of([&] {
+              CellSpec::load(write_temp("c5.yaml", ok_head + part + "rescan: " + dir + "nope.yaml\n"));
+            }).find("nope.yaml"),
+            std::string::npos);
   EXPECT_NE(input_error_of([&] {
               CellSpec::load(write_temp(
                   "c3.yaml",

@@ -7,6 +7,7 @@
 #include "pipeline/outcome.hpp"
 #include "pipeline/weld_pipeline.hpp"
 #include "sim/sweep_sim.hpp"
+#include "tests/input_error_of.hpp"
 #include "tests/test_support.hpp"
 
 namespace weldtwin {
@@ -83,6 +84,22 @@ TEST(WeldPipeline, ThePartsWeldToleranceIsTheBarOfTheLocalizerAndTheJudgement) {
   ASSERT_FALSE(refused.passed());
   EXPECT_EQ(refused.failures[0].kind, FailureKind::kPartNotFound) << refused.failures[0].text();
   EXPECT_FALSE(refused.seams_within_tolerance);
+}
+
+TEST(TwinCell, ARescanStartsWhereTheSweepEndsAndGoesWithTheSweepItFollows) {
+  const CellSpec quick = CellSpec::load(test::repo("scenes/cells/quick_sweep.yaml"));
+  const TwinCell cell(quick);
+  ASSERT_TRUE(cell.rescan.has_value());
+  EXPECT_LT((cell.rescan->start() - cell.program.moves().back().to).cwiseAbs().maxCoeff(), 1e-9);
+  // Another sweep replaces the cell's rescan with it, unless a rescan is given as well.
+  EXPECT_FALSE(TwinCell(quick, test::repo("scenes/sweeps/crossed_passes.yaml")).rescan.has_value());
+  const std::string crossing = test::repo("scenes/sweeps/crossing_pass.yaml");
+  EXPECT_TRUE(TwinCell(quick, test::repo("scenes/sweeps/one_pass.yaml"), crossing).rescan.has_value());
+  // The default sweep ends elsewhere (J1 at -100 deg; the crossing pass starts at +125).
+  const std::string e = test::input_error_of(
+      [&] { TwinCell(CellSpec::load(test::repo("scenes/cells/default.yaml")), "", crossing); });
+  EXPECT_NE(e.find("crossing_pass.yaml"), std::string::npos) << e;
+  EXPECT_NE(e.find("joint 1 at 125.00 deg, the sweep ends at -100.00 deg"), std::string::npos) << e;
 }
 
 TEST(Outcome, ExitCodesFollowTheFirstFailuresKind) {
