@@ -25,6 +25,7 @@ done
 one="--sweep $here/scenes/sweeps/one_pass.yaml"
 two="--sweep $here/scenes/sweeps/two_passes.yaml"
 crossed="--sweep $here/scenes/sweeps/crossed_passes.yaml"
+rescan="--rescan $here/scenes/sweeps/crossing_pass.yaml"
 # The range noise of the seed paper's real scan: its table spreads 0.95 mm (the twin's default, 1.5 mm + 0.25 %
 # of the range, spreads 2.3 mm there; 1.4 mm flat spreads about 0.95 mm).
 real_noise="--lidar noise_sigma_m=0.0014 --lidar noise_sigma_rel=0"
@@ -39,6 +40,8 @@ conditions=(
   "real_noise_one_pass|$real_noise $one"
   "real_noise_two_passes|$real_noise $two"
   "crossed_passes|$crossed"
+  "one_pass_rescan|$one $rescan"
+  "real_noise_one_pass_rescan|$real_noise $one $rescan"
   "real_noise_crossed_passes|$real_noise $crossed"
   "real_noise_crossed_passes_no_viewpoints|$real_noise $crossed --no-viewpoints"
   "crossed_passes_part_off_cad|$crossed --part-deviation-mm 1 --tack-welds 2 --bend-deg 1"
