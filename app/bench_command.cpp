@@ -74,7 +74,7 @@ struct BenchCell : TwinCell {
   }
 
   BenchCell(const std::string& file, const BenchCommand& cmd)
-      : TwinCell(adapted(CellSpec::load(file), cmd), cmd.sweep) {}
+      : TwinCell(adapted(CellSpec::load(file), cmd), cmd.sweep, cmd.rescan) {}
 };
 
 // Everything a trial draws, from (seed, index) alone.
@@ -134,6 +134,7 @@ json draw_json(const Draw& d, const std::vector<BenchCell>& cells, const BenchCo
   j["layout_seed"] = d.layout_seed;
   j["lidar_seed"] = d.lidar_seed;
   if (!cmd.sweep.empty()) j["sweep"] = std::filesystem::path(cmd.sweep).stem().string();
+  if (!cmd.rescan.empty()) j["rescan"] = std::filesystem::path(cmd.rescan).stem().string();
   if (!cmd.robot.empty()) j["robot"] = std::filesystem::path(cmd.robot).stem().string();
   if (cmd.placement) j["placement"] = placement_area_name(*cmd.placement);
   if (!cmd.viewpoints) j["viewpoints"] = false;
@@ -244,12 +245,15 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d,
   if (!mount_error) options.fixed_rays = c.fixed_rays, options.fixed_ray_count = c.fixed_ray_count;
   SweepResult sweep = simulate_sweep(twin.world, twin.real_robot, c.program, lidar, options);
   lap("sweep");
-  if (cmd.encoder_noise_rad > 0) {
-    std::mt19937_64 rng(d.encoder_seed);
+  // Joint encoder noise on the recorded joint states, drawn from `seed`.
+  auto encoder_noise = [&](ScanLog& log, uint64_t seed) {
+    if (cmd.encoder_noise_rad <= 0) return;
+    std::mt19937_64 rng(seed);
     std::normal_distribution<double> noise(0.0, cmd.encoder_noise_rad);
-    for (JointState& s : sweep.log.joints)
+    for (JointState& s : log.joints)
       for (int k = 0; k < s.q.size(); ++k) s.q[k] += noise(rng);
-  }
+  };
+  encoder_noise(sweep.log, d.encoder_seed);
   // With --calibrate, the mount is first found from a sweep of the calibration cell through the same
   // (wrong) mount, and the scan assembled with it; otherwise with the URDF's.
   RobotModel assembly_robot = c.robot;
@@ -263,7 +267,7 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d,
          rounded(rad2deg(Eigen::AngleAxisd(cal.delta.linear().transpose() * delta.linear()).angle()), 1e-5)}};
     lap("calibrate");
   }
-  const AssembledCloud cloud = assemble_scan(sweep.log, assembly_robot);
+  AssembledCloud cloud = assemble_scan(sweep.log, assembly_robot);
   j["scan_points"] = cloud.points_base.size();
   lap("assemble");
 
@@ -287,7 +291,7 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d,
         j["ours"] = pose_json(r.pose, *r.pose_error, c.part.weld_tolerance_m);
         lap("ours");
         if (cmd.paper) {  // the paper's pipeline on the same scan, beside ours
-          const PoseEstimate paper = localize_paper(cloud.points_base, c.mesh);
+          const PoseEstimate paper = localize_paper(cloud.points_base, c.mesh);  // every sweep's points
           j["paper"] =
               pose_json(paper, pose_error(c.part, paper.T_base_part, d.layout.T_base_part, c.symmetry),
                         c.part.weld_tolerance_m);
@@ -319,8 +323,24 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d,
       }
     }
   };
-  const WeldPipelineResult result =
-      weld_pipeline(cloud.points_base, cloud.viewpoints_base, job, setting, hooks);
+  WeldPipelineResult result = weld_pipeline(cloud.points_base, cloud.viewpoints_base, job, setting, hooks);
+  // The cell's rescan where the part is not found in the first sweep: swept too (its rays are not the
+  // shared ones), and the part sought in both, as weldtwin run does.
+  if (!result.pose.found && c.rescan) {
+    lidar.seed = d.lidar_seed + kRescanLidarSeedOffset;
+    options.fixed_rays = nullptr;
+    options.fixed_ray_count = 0;
+    SweepResult again = simulate_sweep(twin.world, twin.real_robot, *c.rescan, lidar, options);
+    encoder_noise(again.log, d.encoder_seed + kRescanLidarSeedOffset);
+    const AssembledCloud more = assemble_scan(again.log, assembly_robot);
+    cloud.points_base.insert(cloud.points_base.end(), more.points_base.begin(), more.points_base.end());
+    cloud.viewpoints_base.insert(cloud.viewpoints_base.end(), more.viewpoints_base.begin(),
+                                 more.viewpoints_base.end());
+    j["rescanned"] = true;
+    j["scan_points"] = cloud.points_base.size();
+    lap("rescan");
+    result = weld_pipeline(cloud.points_base, cloud.viewpoints_base, job, setting, hooks);
+  }
   const PoseEstimate& ours = result.pose;
   j["seams_under_1mm"] = result.seams_within_tolerance;
   set_verdict(j, result.failures);

@@ -33,8 +33,11 @@ struct BenchCommand {
   double mount_error_m = 0.0;      ///< LiDAR mount error drawn per trial: translation sigma per axis [m]
   double mount_error_rad = 0.0;    ///< and rotation sigma per axis [rad]
   double encoder_noise_rad = 0.0;  ///< joint encoder noise (sigma) on the recorded joint states [rad]
-  std::string sweep;               ///< sweep program for every cell ("" = each cell's own)
-  std::string robot;               ///< robot file (arm and tooling) for every cell ("" = each cell's own)
+  std::string sweep;               ///< sweep program for every cell ("" = each cell's own, and its rescan)
+  /// Swept where the part is not found in the first sweep, the part then sought in both ("" = the cell's
+  /// own `rescan:`, if any and no other sweep is given); it starts where the sweep ends
+  std::string rescan;
+  std::string robot;  ///< robot file (arm and tooling) for every cell ("" = each cell's own)
   std::optional<PlacementSpec::Area>
       placement;  ///< where parts are drawn in every cell (unset: each cell's own)
   bool guidance =

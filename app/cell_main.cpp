@@ -165,7 +165,12 @@ int main(int argc, char** argv) {
                "spec's order only (no search of the angle windows, the other direction or the seam order)");
   bc->add_option("--sweep", bench.sweep,
                  "sweep program for every cell, e.g. scenes/sweeps/one_pass.yaml "
-                 "(default: each cell's own)");
+                 "(default: each cell's own; it replaces the cell's rescan too)");
+  bc->add_option("--rescan", bench.rescan,
+                 "where the part is not found, sweep this program too and seek it in both, e.g. "
+                 "scenes/sweeps/crossing_pass.yaml after one_pass.yaml (it starts where the sweep ends; "
+                 "default: the cell's own rescan, if any)")
+      ->check(CLI::ExistingFile);
   bc->add_option(
         "--robot", bench.robot,
         "robot file (arm and tooling) for every cell, e.g. scenes/robots/aubo_i5_bent22_cell.yaml for "

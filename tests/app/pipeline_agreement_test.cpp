@@ -19,7 +19,8 @@ namespace {
 using nlohmann::json;
 
 json run_report(const std::string& cell, int seed) {
-  const std::string dir = ::testing::TempDir() + "weldtwin_agreement_" + std::to_string(seed);
+  const std::string dir = ::testing::TempDir() + "weldtwin_agreement_" +
+                          std::filesystem::path(cell).stem().string() + "_" + std::to_string(seed);
   const std::string cmd = std::string(WELDTWIN_BINARY) + " run " + cell + " --seed " + std::to_string(seed) +
                           " --out " + dir + " --no-renders --no-guidance -q --threads 1 > " + dir +
                           ".stdout 2>&1";
@@ -31,8 +32,8 @@ json run_report(const std::string& cell, int seed) {
 // The bench rounds its figures to 0.1 um (seam errors) and 1 um (clearance).
 constexpr double kRoundingMm = 1.5e-4;
 
-void expect_same_figures(int seed) {
-  const std::string cell = weldtwin::test::repo("scenes/cells/default.yaml");
+void expect_same_figures(int seed, const std::string& cell_file = "scenes/cells/default.yaml") {
+  const std::string cell = weldtwin::test::repo(cell_file);
   const json run = run_report(cell, seed);
   ASSERT_TRUE(run.is_object()) << "seed " << seed << ": weldtwin run wrote no report.json";
   weldtwin::BenchCommand bench;
@@ -43,6 +44,9 @@ void expect_same_figures(int seed) {
                trial["verdict"].get<std::string>());
 
   EXPECT_EQ(run["verdict"] == "PASS", trial["verdict"] == "pass");
+  // Both swept the cell's rescan where the first sweep did not find the part, or neither did.
+  EXPECT_EQ(run["sweeps"].size() == 2, trial.value("rescanned", false));
+  EXPECT_EQ(run["scan_points"], trial["scan_points"]);
   if (!run["reasons"].empty()) {
     EXPECT_EQ(run["reasons"][0], trial["cause"]);
   }
@@ -69,6 +73,11 @@ void expect_same_figures(int seed) {
 
 TEST(PipelineAgreement, RunAndBenchGiveTheSameFiguresForTheSameCellAndSeed) {
   for (int seed : {3, 11}) expect_same_figures(seed);
+}
+
+// A cell with a rescan: seed 9's first sweep does not find the part, and both sweep again (seed 1: neither).
+TEST(PipelineAgreement, RunAndBenchSweepTheCellsRescanAlike) {
+  for (int seed : {1, 9}) expect_same_figures(seed, "scenes/cells/quick_sweep.yaml");
 }
 
 }  // namespace
