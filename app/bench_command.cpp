@@ -326,7 +326,7 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d,
   WeldPipelineResult result = weld_pipeline(cloud.points_base, cloud.viewpoints_base, job, setting, hooks);
   // The cell's rescan where the part is not found in the first sweep: swept too (its rays are not the
   // shared ones), and the part sought in both, as weldtwin run does.
-  if (!result.pose.found && c.rescan) {
+  if (c.sweeps_again(result.pose)) {
     lidar.seed = d.lidar_seed + kRescanLidarSeedOffset;
     options.fixed_rays = nullptr;
     options.fixed_ray_count = 0;

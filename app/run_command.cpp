@@ -242,7 +242,7 @@ int run_job(const RunCommand& cmd) {
   };
   WeldPipelineResult result = weld_pipeline(run.cloud, viewpoints, job, WeldPipelineSetting(), hooks);
   // Not found in the first sweep: the cell's rescan (a pass from another side), and the part sought in both.
-  if (!result.pose.found && twin_cell.rescan) {
+  if (twin_cell.sweeps_again(result.pose)) {
     const std::string stage = step(1, "rescan");
     if (from_log) {
       say(stage, "not swept again: the sweep came from a log (the cell's rescan needs the arm or the twin)");

@@ -382,7 +382,7 @@ int main(int argc, char** argv) {
         }
         return *both;
       };
-      if (!t.ours.found && d.twin.rescan) {
+      if (d.twin.sweeps_again(t.ours)) {
         t.rescanned = true;
         find_ours(both_sweeps());
       }
@@ -405,7 +405,7 @@ int main(int argc, char** argv) {
         };
         auto impostor = [&](const std::string& what, const PartData& sought, bool part_absent) {
           PoseEstimate p = seek(scan, sought, part_absent);
-          if (!p.found && d.twin.rescan) p = seek(both_sweeps(), sought, part_absent);
+          if (d.twin.sweeps_again(p)) p = seek(both_sweeps(), sought, part_absent);
           t.impostors.emplace_back(what, p);
         };
         impostor("absent", d, true);

@@ -5,6 +5,7 @@
 
 #include "core/cell_robot.hpp"
 #include "core/error.hpp"
+#include "perception/localizer.hpp"
 #include "perception/pose_error.hpp"
 
 namespace weldtwin {
@@ -19,9 +20,8 @@ std::optional<SweepProgram> load_rescan(const CellSpec& cell, const std::string&
   if (file.empty()) return std::nullopt;
   SweepProgram rescan = SweepProgram::load(file, robot);
   const JointVector end = sweep.moves().empty() ? sweep.start() : sweep.moves().back().to;
-  if ((rescan.start() - end).cwiseAbs().maxCoeff() > kSameJoint_rad) {
-    int j = 0;
-    (rescan.start() - end).cwiseAbs().maxCoeff(&j);
+  int j = 0;
+  if ((rescan.start() - end).cwiseAbs().maxCoeff(&j) > kSameJoint_rad) {
     char buf[400];
     std::snprintf(
         buf, sizeof buf,
@@ -44,5 +44,9 @@ TwinCell::TwinCell(CellSpec cell_in, const std::string& sweep_file, const std::s
       mesh(load_mesh(part.mesh_path)),
       seam_points(part.seam_points(0.001)),
       symmetry(z_symmetry_order(mesh)) {}
+
+bool TwinCell::sweeps_again(const PoseEstimate& pose) const {
+  return rescan && !pose.found;
+}
 
 }  // namespace weldtwin

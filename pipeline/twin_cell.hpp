@@ -15,6 +15,8 @@
 
 namespace weldtwin {
 
+struct PoseEstimate;
+
 /// The twin's rescan draws its LiDAR noise from the sweep's seed plus this (a sweep of its own).
 constexpr uint64_t kRescanLidarSeedOffset = 1000003;
 
@@ -34,6 +36,10 @@ struct TwinCell {
   /// cell's rescan, unless `rescan_file` names one. Throws InputError naming the file that is wrong (a rescan
   /// that does not start where the sweep ends, too).
   explicit TwinCell(CellSpec cell, const std::string& sweep_file = "", const std::string& rescan_file = "");
+
+  /// Whether the cell sweeps its rescan after a first sweep that gave `pose`: it has one, and the part (or
+  /// what was sought) was not found. Every caller that sweeps asks this.
+  bool sweeps_again(const PoseEstimate& pose) const;
 };
 
 }  // namespace weldtwin
