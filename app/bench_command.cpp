@@ -74,7 +74,7 @@ struct BenchCell : TwinCell {
   }
 
   BenchCell(const std::string& file, const BenchCommand& cmd)
-      : TwinCell(adapted(CellSpec::load(file), cmd), cmd.sweep, cmd.rescan) {}
+      : TwinCell(adapted(CellSpec::load(file), cmd), cmd.sweep, cmd.rescans) {}
 };
 
 // Everything a trial draws, from (seed, index) alone.
@@ -134,7 +134,12 @@ json draw_json(const Draw& d, const std::vector<BenchCell>& cells, const BenchCo
   j["layout_seed"] = d.layout_seed;
   j["lidar_seed"] = d.lidar_seed;
   if (!cmd.sweep.empty()) j["sweep"] = std::filesystem::path(cmd.sweep).stem().string();
-  if (!cmd.rescan.empty()) j["rescan"] = std::filesystem::path(cmd.rescan).stem().string();
+  if (!cmd.rescans.empty()) {
+    std::string names;  // their stems, '+' between
+    for (const std::string& r : cmd.rescans)
+      names += (names.empty() ? "" : "+") + std::filesystem::path(r).stem().string();
+    j["rescan"] = names;
+  }
   if (!cmd.robot.empty()) j["robot"] = std::filesystem::path(cmd.robot).stem().string();
   if (cmd.placement) j["placement"] = placement_area_name(*cmd.placement);
   if (!cmd.viewpoints) j["viewpoints"] = false;
@@ -324,19 +329,20 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d,
     }
   };
   WeldPipelineResult result = weld_pipeline(cloud.points_base, cloud.viewpoints_base, job, setting, hooks);
-  // The cell's rescan where the part is not found in the first sweep: swept too (its rays are not the
-  // shared ones), and the part sought in both, as weldtwin run does.
-  if (c.sweeps_again(result.pose)) {
-    lidar.seed = d.lidar_seed + kRescanLidarSeedOffset;
+  // The cell's rescans while the part is not found in the sweeps so far: each swept too (their rays are not
+  // the shared ones), and the part sought in all of them, as weldtwin run does.
+  for (size_t k = 0; c.sweeps_again(result.pose, k); ++k) {
+    lidar.seed = rescan_lidar_seed(d.lidar_seed, k);
     options.fixed_rays = nullptr;
     options.fixed_ray_count = 0;
-    SweepResult again = simulate_sweep(twin.world, twin.real_robot, *c.rescan, lidar, options);
-    encoder_noise(again.log, d.encoder_seed + kRescanLidarSeedOffset);
+    SweepResult again = simulate_sweep(twin.world, twin.real_robot, c.rescans[k], lidar, options);
+    encoder_noise(again.log, rescan_lidar_seed(d.encoder_seed, k));
     const AssembledCloud more = assemble_scan(again.log, assembly_robot);
     cloud.points_base.insert(cloud.points_base.end(), more.points_base.begin(), more.points_base.end());
     cloud.viewpoints_base.insert(cloud.viewpoints_base.end(), more.viewpoints_base.begin(),
                                  more.viewpoints_base.end());
     j["rescanned"] = true;
+    j["rescans"] = k + 1;
     j["scan_points"] = cloud.points_base.size();
     lap("rescan");
     result = weld_pipeline(cloud.points_base, cloud.viewpoints_base, job, setting, hooks);

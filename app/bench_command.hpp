@@ -34,9 +34,10 @@ struct BenchCommand {
   double mount_error_rad = 0.0;    ///< and rotation sigma per axis [rad]
   double encoder_noise_rad = 0.0;  ///< joint encoder noise (sigma) on the recorded joint states [rad]
   std::string sweep;               ///< sweep program for every cell ("" = each cell's own, and its rescan)
-  /// Swept where the part is not found in the first sweep, the part then sought in both ("" = the cell's
-  /// own `rescan:`, if any and no other sweep is given); it starts where the sweep ends
-  std::string rescan;
+  /// Swept one after another while the part is not found in the sweeps so far, the part then sought in all
+  /// of them (none: the cell's own `rescan:`, if any and no other sweep is given); each starts where the
+  /// program before it ends
+  std::vector<std::string> rescans;
   std::string robot;  ///< robot file (arm and tooling) for every cell ("" = each cell's own)
   std::optional<PlacementSpec::Area>
       placement;  ///< where parts are drawn in every cell (unset: each cell's own)

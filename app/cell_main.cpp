@@ -166,10 +166,12 @@ int main(int argc, char** argv) {
   bc->add_option("--sweep", bench.sweep,
                  "sweep program for every cell, e.g. scenes/sweeps/one_pass.yaml "
                  "(default: each cell's own; it replaces the cell's rescan too)");
-  bc->add_option("--rescan", bench.rescan,
-                 "where the part is not found, sweep this program too and seek it in both, e.g. "
-                 "scenes/sweeps/crossing_pass.yaml after one_pass.yaml (it starts where the sweep ends; "
-                 "default: the cell's own rescan, if any)")
+  bc->add_option("--rescan", bench.rescans,
+                 "where the part is not found, sweep this program too and seek it in all sweeps, e.g. "
+                 "scenes/sweeps/crossing_pass.yaml after one_pass.yaml (it starts where the sweep ends); "
+                 "given again, the next program swept while the part is still not found (default: the "
+                 "cell's own rescans, if any)")
+      ->allow_extra_args(false)
       ->check(CLI::ExistingFile);
   bc->add_option(
         "--robot", bench.robot,

@@ -241,19 +241,23 @@ int run_job(const RunCommand& cmd) {
     }
   };
   WeldPipelineResult result = weld_pipeline(run.cloud, viewpoints, job, WeldPipelineSetting(), hooks);
-  // Not found in the first sweep: the cell's rescan (a pass from another side), and the part sought in both.
-  if (twin_cell.sweeps_again(result.pose)) {
+  // Not found in the sweeps so far: the cell's next rescan (a pass from another side), and the part sought in
+  // all of them.
+  for (size_t k = 0; twin_cell.sweeps_again(result.pose, k); ++k) {
     const std::string stage = step(1, "rescan");
     if (from_log) {
       say(stage, "not swept again: the sweep came from a log (the cell's rescan needs the arm or the twin)");
-    } else {
-      say(stage, "the part was not found in the sweep: sweeping " + twin_cell.rescan->source() +
-                     " too, and seeking it in both");
-      if (const std::optional<int> stopped =
-              sweep(*twin_cell.rescan, lidar.seed + kRescanLidarSeedOffset, "rescan", "rescan", stage))
-        return *stopped;
-      result = weld_pipeline(run.cloud, viewpoints, job, WeldPipelineSetting(), hooks);
+      break;
     }
+    const SweepProgram& rescan = twin_cell.rescans[k];
+    say(stage, "the part was not found in the " + std::string(k == 0 ? "sweep" : "sweeps so far") +
+                   ": sweeping " + rescan.source() + " too, and seeking it in " +
+                   (k == 0 ? "both" : "all " + std::to_string(k + 2)));
+    const std::string log_name = k == 0 ? "rescan" : "rescan" + std::to_string(k + 1);
+    if (const std::optional<int> stopped =
+            sweep(rescan, rescan_lidar_seed(lidar.seed, k), log_name.c_str(), "rescan", stage))
+      return *stopped;
+    result = weld_pipeline(run.cloud, viewpoints, job, WeldPipelineSetting(), hooks);
   }
   const PoseEstimate& pose = result.pose;
   run.pose = &pose;

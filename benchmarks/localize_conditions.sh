@@ -26,6 +26,8 @@ one="--sweep $here/scenes/sweeps/one_pass.yaml"
 two="--sweep $here/scenes/sweeps/two_passes.yaml"
 crossed="--sweep $here/scenes/sweeps/crossed_passes.yaml"
 rescan="--rescan $here/scenes/sweeps/crossing_pass.yaml"
+# The rescans of scenes/cells/quick_sweep.yaml: each swept only while the part is still refused.
+rescans="$rescan --rescan $here/scenes/sweeps/outer_passes.yaml --rescan $here/scenes/sweeps/inner_pass.yaml"
 # The range noise of the seed paper's real scan: its table spreads 0.95 mm (the twin's default, 1.5 mm + 0.25 %
 # of the range, spreads 2.3 mm there; 1.4 mm flat spreads about 0.95 mm).
 real_noise="--lidar noise_sigma_m=0.0014 --lidar noise_sigma_rel=0"
@@ -42,6 +44,12 @@ conditions=(
   "crossed_passes|$crossed"
   "one_pass_rescan|$one $rescan"
   "real_noise_one_pass_rescan|$real_noise $one $rescan"
+  "one_pass_rescans|$one $rescans"
+  "real_noise_one_pass_rescans|$real_noise $one $rescans"
+  "one_pass_rescans_no_viewpoints|$one $rescans --no-viewpoints"
+  "one_pass_rescans_stray_returns|$one $rescans --lidar stray_returns=1"
+  "one_pass_rescans_mount_error_calibrated|$one $rescans --mount-error-mm 5 --mount-error-deg 0.5 --calibrate"
+  "one_pass_rescans_part_off_cad|$one $rescans --part-deviation-mm 1 --tack-welds 2 --bend-deg 1"
   "real_noise_crossed_passes|$real_noise $crossed"
   "real_noise_crossed_passes_no_viewpoints|$real_noise $crossed --no-viewpoints"
   "crossed_passes_part_off_cad|$crossed --part-deviation-mm 1 --tack-welds 2 --bend-deg 1"

@@ -109,7 +109,7 @@ struct Trial {
   PoseError ours_err, paper_err;
   std::vector<std::pair<std::string, PoseEstimate>> impostors;  // must all be refused
   size_t points = 0;
-  bool rescanned = false;  ///< ours refused the first sweep, and the rescan was swept
+  size_t rescans = 0;  ///< rescans swept (ours refused the sweeps before each)
   // Ours' position error in the base frame: along the line from the robot's base axis to the part (negative:
   // towards the robot, where the LiDAR looks from) and across it (counter-clockwise) [m].
   double radial_m = 0.0, tangential_m = 0.0;
@@ -186,11 +186,14 @@ int main(int argc, char** argv) {
   app.add_option(
       "--sweep", sweep_file,
       "sweep program for every cell (default: each cell's own; it replaces the cell's rescan too)");
-  std::string rescan_file;
+  std::vector<std::string> rescan_files;
   app.add_option(
-      "--rescan", rescan_file,
-      "where the part is refused, sweep this program too (it starts where the sweep ends) and seek "
-      "the part in both sweeps, as a cell with `rescan:` does (default: the cell's own, if any)");
+         "--rescan", rescan_files,
+         "where the part is refused, sweep this program too (it starts where the sweep ends) and seek "
+         "the part in both sweeps, as a cell with `rescan:` does; given again, the next program swept while "
+         "it "
+         "is still refused, the part sought in all sweeps (default: the cell's own, if any)")
+      ->allow_extra_args(false);
   app.add_option(
       "--mount-error-mm", mount_error_mm,
       "the LiDAR mount off by a seeded draw, sigma per axis [mm] (the scan assembled with the nominal)");
@@ -261,7 +264,7 @@ int main(int argc, char** argv) {
     if (cells.empty()) return real_failed ? 3 : 0;
     std::vector<PartData> parts;
     for (const std::string& f : cells) {
-      PartData d{f, TwinCell(CellSpec::load(f), sweep_file, rescan_file), nullptr};
+      PartData d{f, TwinCell(CellSpec::load(f), sweep_file, rescan_files), nullptr};
       d.prepared = std::make_shared<const PreparedPart>(d.twin.mesh);
       std::fprintf(stderr, "%s: z symmetry order %d\n", d.twin.part.name.c_str(), d.twin.symmetry);
       parts.push_back(std::move(d));
@@ -367,24 +370,27 @@ int main(int argc, char** argv) {
         t.ours_err = *found.pose_error;
       };
       find_ours(scan);
-      // Both sweeps, made once it is needed: where the part (or an impostor) is refused in the first sweep,
-      // a cell with a rescan sweeps it and seeks the part in both.
-      std::optional<Scan> both;
-      auto both_sweeps = [&]() -> const Scan& {
-        if (!both) {
-          both = scan;
-          const Scan more =
-              sweep_scan(*d.twin.rescan, t.seed + kRescanLidarSeedOffset,
-                         "-rescan=" + std::filesystem::path(d.twin.rescan->source()).stem().string());
-          both->points.insert(both->points.end(), more.points.begin(), more.points.end());
-          both->labels.insert(both->labels.end(), more.labels.begin(), more.labels.end());
-          both->viewpoints.insert(both->viewpoints.end(), more.viewpoints.begin(), more.viewpoints.end());
+      // The sweeps so far, made once they are needed: where the part (or an impostor) is refused in them, a
+      // cell with rescans sweeps the next and seeks the part in all of them. [k]: the sweep and rescans 0..k.
+      std::vector<Scan> rescanned;
+      auto with_rescans = [&](size_t k) -> const Scan& {
+        while (rescanned.size() <= k) {
+          const size_t r = rescanned.size();
+          const SweepProgram& program = d.twin.rescans[r];
+          Scan all = r == 0 ? scan : rescanned.back();
+          const Scan more = sweep_scan(program, rescan_lidar_seed(t.seed, r),
+                                       "-rescan" + (r == 0 ? std::string() : std::to_string(r + 1)) + "=" +
+                                           std::filesystem::path(program.source()).stem().string());
+          all.points.insert(all.points.end(), more.points.begin(), more.points.end());
+          all.labels.insert(all.labels.end(), more.labels.begin(), more.labels.end());
+          all.viewpoints.insert(all.viewpoints.end(), more.viewpoints.begin(), more.viewpoints.end());
+          rescanned.push_back(std::move(all));
         }
-        return *both;
+        return rescanned[k];
       };
-      if (d.twin.sweeps_again(t.ours)) {
-        t.rescanned = true;
-        find_ours(both_sweeps());
+      for (size_t k = 0; d.twin.sweeps_again(t.ours, k); ++k) {
+        t.rescans = k + 1;
+        find_ours(with_rescans(k));
       }
       if (!no_paper) {
         t.paper = localize_paper(scan.points, d.twin.mesh);
@@ -392,7 +398,7 @@ int main(int argc, char** argv) {
       }
       if (!no_impostors &&
           (impostor_layouts < 0 || t.seed < seed0 + static_cast<uint64_t>(impostor_layouts))) {
-        // Each refused in the first sweep is sought again in both, where the cell has a rescan.
+        // Each refused in the sweeps so far is sought again with the next rescan, where the cell has one.
         auto seek = [&](const Scan& in, const PartData& sought, bool part_absent) {
           std::vector<Vec3> points, viewpoints;
           for (size_t k = 0; k < in.points.size(); ++k)
@@ -405,7 +411,7 @@ int main(int argc, char** argv) {
         };
         auto impostor = [&](const std::string& what, const PartData& sought, bool part_absent) {
           PoseEstimate p = seek(scan, sought, part_absent);
-          if (d.twin.sweeps_again(p)) p = seek(both_sweeps(), sought, part_absent);
+          for (size_t k = 0; d.twin.sweeps_again(p, k); ++k) p = seek(with_rescans(k), sought, part_absent);
           t.impostors.emplace_back(what, p);
         };
         impostor("absent", d, true);
@@ -418,7 +424,7 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "[calibrated mount %.2f mm off] ", calibration_error_mm[i]);
       std::fprintf(stderr, "[%zu/%zu] %s seed %llu: ours %s%s %.3f mm %.3f deg %.2f s", done.load(),
                    trials.size(), d.twin.part.name.c_str(), static_cast<unsigned long long>(t.seed),
-                   t.rescanned ? "(rescanned) " : "",
+                   t.rescans ? ("(rescanned " + std::to_string(t.rescans) + ") ").c_str() : "",
                    t.ours.found ? "found" : ("refused (" + t.ours.reason + ")").c_str(),
                    1e3 * t.ours_err.seam_max_m, rad2deg(t.ours_err.rotation_rad), t.ours.seconds);
       if (!no_paper)
@@ -478,7 +484,7 @@ int main(int argc, char** argv) {
             << rad2deg(t.paper_err.rotation_rad) << ',' << t.paper.seconds << ',' << fa << ','
             << 1e3 * t.radial_m << ',' << 1e3 * t.tangential_m << ',' << 1e3 * t.ours.seam_error_bound_m
             << ',' << t.ours.passes_fitted << ',' << 1e3 * t.ours.pass_apart_m << ','
-            << 1e3 * t.ours.pass_excess_m << ',' << t.ours.bound_cells << ',' << t.rescanned << '\n';
+            << 1e3 * t.ours.pass_excess_m << ',' << t.ours.bound_cells << ',' << t.rescans << '\n';
       }
     }
     std::printf("%-15s %7s %9s %8s %8s %8s %8s %8s %9s %9s %8s\n", "part (method)", "trials", "success",
@@ -517,18 +523,28 @@ int main(int argc, char** argv) {
         "absent/wrong-part "
         "cases\n",
         total_false, total_impostors);
-    if (parts.front().twin.rescan) {
-      int rescans = 0;
+    if (!parts.front().twin.rescans.empty()) {
+      const TwinCell& first = parts.front().twin;
+      std::vector<int> swept(first.rescans.size() + 1, 0);  // [k]: cells that swept k rescans
       double sweep_s = 0.0;
       for (const Trial& t : trials) {
         const TwinCell& c = parts[t.part].twin;
-        rescans += t.rescanned;
-        sweep_s += c.program.duration_s() + (t.rescanned ? c.rescan->duration_s() : 0.0);
+        ++swept[std::min(t.rescans, swept.size() - 1)];
+        sweep_s += c.program.duration_s();
+        for (size_t k = 0; k < t.rescans; ++k) sweep_s += c.rescans[k].duration_s();
       }
-      std::printf(
-          "ours rescanned %d of %zu cells (sweep %.0f s, rescan %.0f s): %.1f s of sweeping per cell\n",
-          rescans, trials.size(), parts.front().twin.program.duration_s(),
-          parts.front().twin.rescan->duration_s(), sweep_s / std::max<size_t>(1, trials.size()));
+      std::string counts, seconds;
+      for (size_t k = 0; k < first.rescans.size(); ++k) {
+        int at_least = 0;
+        for (size_t n = k + 1; n < swept.size(); ++n) at_least += swept[n];
+        counts += k == 0 ? std::to_string(at_least) + " of " + std::to_string(trials.size()) + " cells"
+                         : ", " + std::to_string(at_least) + " of them with rescan " + std::to_string(k + 1);
+        seconds +=
+            (k ? " + " : "") + std::to_string(static_cast<int>(std::lround(first.rescans[k].duration_s())));
+      }
+      std::printf("ours rescanned %s (sweep %.0f s, rescans %s s): %.1f s of sweeping per cell\n",
+                  counts.c_str(), first.program.duration_s(), seconds.c_str(),
+                  sweep_s / std::max<size_t>(1, trials.size()));
     }
     // A bias shows as a mean position error with a small spread: its direction says where it comes from
     // (radial: towards or away from the robot, which the LiDAR looks from).

@@ -11,10 +11,15 @@
 namespace weldtwin {
 namespace {
 
-std::string existing(const std::string& file, const YAML::Node& root, const std::string& key) {
-  const std::string path = yaml::resolve(file, yaml::text(root, key, file));
+// `relative` (field `key` of `file`) resolved against the file's folder; it must name a file.
+std::string existing_file(const std::string& file, const std::string& key, const std::string& relative) {
+  const std::string path = yaml::resolve(file, relative);
   if (!is_file(path)) throw input_error(file, "field '" + key + "': file '" + path + "' does not exist");
   return path;
+}
+
+std::string existing(const std::string& file, const YAML::Node& root, const std::string& key) {
+  return existing_file(file, key, yaml::text(root, key, file));
 }
 
 // A length vector from KEY_m, KEY_mm or KEY (metres); zero when none is given.
@@ -161,7 +166,20 @@ CellSpec parse(const std::string& file) {
   cell.environment_mjcf = existing(file, root, "environment");
   parse_robot(root, file, cell);
   cell.sweep_program = existing(file, root, "sweep");
-  if (root["rescan"]) cell.rescan_program = existing(file, root, "rescan");
+  if (const YAML::Node r = root["rescan"]) {
+    if (r.IsScalar()) {
+      cell.rescan_programs.push_back(existing(file, root, "rescan"));
+    } else {
+      constexpr size_t kMaxRescans = 8;
+      if (!r.IsSequence() || r.size() > kMaxRescans)
+        throw input_error(
+            file, "field 'rescan' must name a sweep program, or list at most " + std::to_string(kMaxRescans));
+      for (const auto& item : r) {
+        if (!item.IsScalar()) throw input_error(file, "field 'rescan' must list sweep program files");
+        cell.rescan_programs.push_back(existing_file(file, "rescan", item.Scalar()));
+      }
+    }
+  }
 
   if (const YAML::Node t = root["table"]) {
     cell.table.x_min_m = yaml::length(t, "x_min", file);

@@ -84,9 +84,10 @@ struct CellSpec {
       robot_package_dirs;            ///< resolved folders where `package://NAME` is also looked for
   std::vector<ToolingLink> tooling;  ///< added to the robot, parents first
   std::string sweep_program;         ///< resolved path
-  /// Resolved path, or "": the program swept when the part is not found in the first sweep (a pass from
-  /// another side; it starts where the sweep program ends), and the part sought again in both sweeps
-  std::string rescan_program;
+  /// Resolved paths (`rescan:` a file, or a list): the programs swept one after another while the part is
+  /// not found (passes from other sides; each starts where the one before it ends), the part sought again
+  /// in all sweeps so far after each
+  std::vector<std::string> rescan_programs;
   std::string part_spec;  ///< resolved path
   TableSpec table;
   PlacementSpec placement;

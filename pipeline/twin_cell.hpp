@@ -17,29 +17,35 @@ namespace weldtwin {
 
 struct PoseEstimate;
 
-/// The twin's rescan draws its LiDAR noise from the sweep's seed plus this (a sweep of its own).
+/// The twin's k-th rescan (from 0) draws its LiDAR noise from the sweep's seed plus k + 1 times this (a
+/// sweep of its own).
 constexpr uint64_t kRescanLidarSeedOffset = 1000003;
+inline uint64_t rescan_lidar_seed(uint64_t sweep_seed, size_t k) {
+  return sweep_seed + (k + 1) * kRescanLidarSeedOffset;
+}
 
 struct TwinCell {
   CellSpec cell;
   PartSpec part;
   RobotModel robot;  ///< as the controller knows it (the URDF's LiDAR mount)
   SweepProgram program;
-  /// Swept when the part is not found in the first sweep (CellSpec::rescan_program); starts where `program`
-  /// ends
-  std::optional<SweepProgram> rescan;
+  /// Swept one after another while the part is not found (CellSpec::rescan_programs): the first starts where
+  /// `program` ends, each other where the one before it ends
+  std::vector<SweepProgram> rescans;
   Mesh mesh;                      ///< the part's CAD, metres
   std::vector<Vec3> seam_points;  ///< part frame, 1 mm apart: what seam errors are measured on
   int symmetry = 1;               ///< z_symmetry_order of the mesh
 
   /// Loads what `cell` names; `sweep_file` ("" = the cell's own) replaces its sweep program, and with it the
-  /// cell's rescan, unless `rescan_file` names one. Throws InputError naming the file that is wrong (a rescan
-  /// that does not start where the sweep ends, too).
-  explicit TwinCell(CellSpec cell, const std::string& sweep_file = "", const std::string& rescan_file = "");
+  /// cell's rescans, unless `rescan_files` name others. Throws InputError naming the file that is wrong (a
+  /// rescan that does not start where the program before it ends, too).
+  explicit TwinCell(CellSpec cell, const std::string& sweep_file = "",
+                    const std::vector<std::string>& rescan_files = {});
 
-  /// Whether the cell sweeps its rescan after a first sweep that gave `pose`: it has one, and the part (or
-  /// what was sought) was not found. Every caller that sweeps asks this.
-  bool sweeps_again(const PoseEstimate& pose) const;
+  /// Whether the cell sweeps its next rescan when the sweeps so far (the first and `rescanned` rescans) gave
+  /// `pose`: it has one left, and the part (or what was sought) was not found. Every caller that sweeps asks
+  /// this.
+  bool sweeps_again(const PoseEstimate& pose, size_t rescanned) const;
 };
 
 }  // namespace weldtwin

@@ -1,6 +1,8 @@
 // Shared fixtures for the tests: repository paths and a loaded cell.
 #pragma once
 
+#include <filesystem>
+#include <fstream>
 #include <memory>
 #include <optional>
 #include <random>
@@ -20,6 +22,24 @@ namespace weldtwin::test {
 
 inline std::string repo(const std::string& relative) {
   return std::string(WELDTWIN_SOURCE_DIR) + "/" + relative;
+}
+
+/// A copy of the repository's cell `cell_file` at the twin's default LiDAR noise: its `lidar:` line left out,
+/// its paths made absolute, written to `copy_path`, which is returned.
+inline std::string at_twin_noise(const std::string& cell_file, const std::string& copy_path) {
+  std::ifstream in(repo(cell_file));
+  const std::filesystem::path folder = std::filesystem::path(repo(cell_file)).parent_path();
+  const std::string cells = folder.string() + "/", above = folder.parent_path().string() + "/";
+  std::string text, line;
+  while (std::getline(in, line)) {
+    if (line.rfind("lidar:", 0) == 0) continue;
+    for (size_t at = line.find("../"); at != std::string::npos; at = line.find("../", at + above.size()))
+      line.replace(at, 3, above);
+    if (line.rfind("environment: ", 0) == 0) line.insert(13, cells);
+    text += line + "\n";
+  }
+  std::ofstream(copy_path) << text;
+  return copy_path;
 }
 
 inline CellSpec load_with_robot(const std::string& cell_file, const std::string& robot_file) {

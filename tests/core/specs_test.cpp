@@ -207,16 +207,30 @@ TEST(CellSpec, DefaultCellLoadsAndBadOnesAreRejected) {
                               "\nsweep: " + test::repo("scenes/sweeps/default.yaml") + "\n";
   EXPECT_NE(input_error_of([&] { CellSpec::load(write_temp("c2.yaml", ok_head)); }).find("part"),
             std::string::npos);
-  // A rescan is optional; named, its file must exist.
-  EXPECT_TRUE(cell.rescan_program.empty());
+  // A rescan is optional; named, or listed, its files must exist.
+  EXPECT_TRUE(cell.rescan_programs.empty());
   const std::string part = "part: {spec: " + test::repo("scenes/parts/tube_tee.yaml") + "}\n";
-  EXPECT_EQ(CellSpec::load(write_temp("c4.yaml", ok_head + part + "rescan: " +
-                                                     test::repo("scenes/sweeps/crossing_pass.yaml") + "\n"))
-                .rescan_program,
-            test::repo("scenes/sweeps/crossing_pass.yaml"));
+  const std::string crossing = test::repo("scenes/sweeps/crossing_pass.yaml");
+  const std::string outer = test::repo("scenes/sweeps/outer_passes.yaml");
+  EXPECT_EQ(
+      CellSpec::load(write_temp("c4.yaml", ok_head + part + "rescan: " + crossing + "\n")).rescan_programs,
+      std::vector<std::string>{crossing});
+  EXPECT_EQ(
+      CellSpec::load(write_temp("c6.yaml", ok_head + part + "rescan: [" + crossing + ", " + outer + "]\n"))
+          .rescan_programs,
+      (std::vector<std::string>{crossing, outer}));
   EXPECT_NE(input_error_of([&] {
               CellSpec::load(write_temp("c5.yaml", ok_head + part + "rescan: " + dir + "nope.yaml\n"));
             }).find("nope.yaml"),
+            std::string::npos);
+  EXPECT_NE(input_error_of([&] {
+              CellSpec::load(write_temp(
+                  "c7.yaml", ok_head + part + "rescan: [" + crossing + ", " + dir + "nope.yaml]\n"));
+            }).find("nope.yaml"),
+            std::string::npos);
+  EXPECT_NE(input_error_of([&] {
+              CellSpec::load(write_temp("c8.yaml", ok_head + part + "rescan: {a: 1}\n"));
+            }).find("rescan"),
             std::string::npos);
   EXPECT_NE(input_error_of([&] {
               CellSpec::load(write_temp(

@@ -86,20 +86,41 @@ TEST(WeldPipeline, ThePartsWeldToleranceIsTheBarOfTheLocalizerAndTheJudgement) {
   EXPECT_FALSE(refused.seams_within_tolerance);
 }
 
-TEST(TwinCell, ARescanStartsWhereTheSweepEndsAndGoesWithTheSweepItFollows) {
+TEST(TwinCell, EachRescanStartsWhereTheProgramBeforeItEndsAndTheyGoWithTheSweepTheyFollow) {
   const CellSpec quick = CellSpec::load(test::repo("scenes/cells/quick_sweep.yaml"));
   const TwinCell cell(quick);
-  ASSERT_TRUE(cell.rescan.has_value());
-  EXPECT_LT((cell.rescan->start() - cell.program.moves().back().to).cwiseAbs().maxCoeff(), 1e-9);
-  // Another sweep replaces the cell's rescan with it, unless a rescan is given as well.
-  EXPECT_FALSE(TwinCell(quick, test::repo("scenes/sweeps/crossed_passes.yaml")).rescan.has_value());
+  ASSERT_EQ(cell.rescans.size(), 3u);
+  EXPECT_LT((cell.rescans[0].start() - cell.program.moves().back().to).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((cell.rescans[1].start() - cell.rescans[0].moves().back().to).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((cell.rescans[2].start() - cell.rescans[1].moves().back().to).cwiseAbs().maxCoeff(), 1e-9);
+  // Swept in turn while the part is not found, and no more than the cell has.
+  PoseEstimate refused, found;
+  found.found = true;
+  EXPECT_TRUE(cell.sweeps_again(refused, 0));
+  EXPECT_TRUE(cell.sweeps_again(refused, 2));
+  EXPECT_FALSE(cell.sweeps_again(refused, 3));
+  EXPECT_FALSE(cell.sweeps_again(found, 0));
+  EXPECT_FALSE(TwinCell(CellSpec::load(test::repo("scenes/cells/default.yaml"))).sweeps_again(refused, 0));
+  // Another sweep replaces the cell's rescans with it, unless rescans are given as well.
+  EXPECT_TRUE(TwinCell(quick, test::repo("scenes/sweeps/crossed_passes.yaml")).rescans.empty());
   const std::string crossing = test::repo("scenes/sweeps/crossing_pass.yaml");
-  EXPECT_TRUE(TwinCell(quick, test::repo("scenes/sweeps/one_pass.yaml"), crossing).rescan.has_value());
+  const std::string outer = test::repo("scenes/sweeps/outer_passes.yaml");
+  EXPECT_EQ(TwinCell(quick, test::repo("scenes/sweeps/one_pass.yaml"), {crossing}).rescans.size(), 1u);
   // The default sweep ends elsewhere (J1 at -100 deg; the crossing pass starts at +125).
   const std::string e = test::input_error_of(
-      [&] { TwinCell(CellSpec::load(test::repo("scenes/cells/default.yaml")), "", crossing); });
+      [&] { TwinCell(CellSpec::load(test::repo("scenes/cells/default.yaml")), "", {crossing}); });
   EXPECT_NE(e.find("crossing_pass.yaml"), std::string::npos) << e;
-  EXPECT_NE(e.find("joint 1 at 125.00 deg, the sweep ends at -100.00 deg"), std::string::npos) << e;
+  EXPECT_NE(e.find("joint 1 at 125.00 deg, that program ends at -100.00 deg"), std::string::npos) << e;
+  // The outer passes start where the crossing pass ends, not where the one pass does (J1 at -125 against
+  // +125 deg).
+  const std::string o =
+      test::input_error_of([&] { TwinCell(quick, test::repo("scenes/sweeps/one_pass.yaml"), {outer}); });
+  EXPECT_NE(o.find("outer_passes.yaml"), std::string::npos) << o;
+  EXPECT_NE(o.find("joint 1 at -125.00 deg, that program ends at 125.00 deg"), std::string::npos) << o;
+  const std::string w = test::input_error_of([&] {
+    TwinCell(quick, test::repo("scenes/sweeps/one_pass.yaml"), {outer, crossing});
+  });
+  EXPECT_NE(w.find("outer_passes.yaml"), std::string::npos) << w;
 }
 
 TEST(Outcome, ExitCodesFollowTheFirstFailuresKind) {
