@@ -405,6 +405,15 @@ double write_report(const RunRecord& run, const std::string& dir, bool renders) 
       << "</td></tr>\n";
   };
   row("weld tolerance", num(1e3 * tolerance_m) + " mm: every seam point and arc-on torch position within it");
+  if (!run.sweeps.empty()) {
+    std::string names;
+    for (const std::string& f : run.sweeps)
+      names += (names.empty() ? "" : ", ") + std::filesystem::path(f).stem().string();
+    row("sweeps", names +
+                      (run.sweeps.size() > 1 ? " (each rescan swept as the part was not found in those before)"
+                                             : "") +
+                      "; " + std::to_string(run.cloud.size()) + " points");
+  }
   if (run.pose) {
     row("part found", run.pose->found ? "yes" : "no: " + run.pose->reason, !run.pose->found);
     row("fitness / coverage / ambiguity",
