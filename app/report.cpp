@@ -224,6 +224,7 @@ nlohmann::json report_json(const RunRecord& run) {
   j["clamps"] = run.layout->clamps.size();
   j["scan_points"] = run.cloud.size();
   j["sweeps"] = run.sweeps;
+  j["rescan_reasons"] = run.rescan_reasons;
   if (run.pose) {
     j["localization"] = {{"found", run.pose->found},
                          {"reason", run.pose->reason},
@@ -406,13 +407,11 @@ double write_report(const RunRecord& run, const std::string& dir, bool renders) 
   };
   row("weld tolerance", num(1e3 * tolerance_m) + " mm: every seam point and arc-on torch position within it");
   if (!run.sweeps.empty()) {
-    std::string names;
-    for (const std::string& f : run.sweeps)
-      names += (names.empty() ? "" : ", ") + std::filesystem::path(f).stem().string();
-    row("sweeps", names +
-                      (run.sweeps.size() > 1 ? " (each rescan swept as the part was not found in those before)"
-                                             : "") +
-                      "; " + std::to_string(run.cloud.size()) + " points");
+    std::string names;  // each rescan with why it was swept
+    for (size_t k = 0; k < run.sweeps.size(); ++k)
+      names += (k ? "; " : "") + std::filesystem::path(run.sweeps[k]).stem().string() +
+               (k && k <= run.rescan_reasons.size() ? " (" + run.rescan_reasons[k - 1] + ")" : "");
+    row("sweeps", names + "; " + std::to_string(run.cloud.size()) + " points");
   }
   if (run.pose) {
     row("part found", run.pose->found ? "yes" : "no: " + run.pose->reason, !run.pose->found);

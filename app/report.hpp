@@ -25,9 +25,11 @@ struct RunRecord {
   const PartSpec* part = nullptr;
   const CellLayout* layout = nullptr;
   const MujocoWorld* world = nullptr;
-  std::vector<Vec3> cloud;          ///< base frame, of every sweep
-  std::vector<std::string> sweeps;  ///< the sweep programs swept, in order (a second: the cell's rescan)
-  std::vector<Label> cloud_labels;  ///< truth, per point
+  std::vector<Vec3> cloud;  ///< base frame, of every sweep
+  std::vector<std::string>
+      sweeps;  ///< the sweep programs swept, in order (after the first: the cell's rescans)
+  std::vector<std::string> rescan_reasons;  ///< why each rescan was swept (TwinCell::sweep_again_because)
+  std::vector<Label> cloud_labels;          ///< truth, per point
   const PoseEstimate* pose = nullptr;
   std::optional<PoseError> pose_error;  ///< against the truth, when known (the twin made the scan)
   const WeldPlan* plan = nullptr;

@@ -241,17 +241,21 @@ int run_job(const RunCommand& cmd) {
     }
   };
   WeldPipelineResult result = weld_pipeline(run.cloud, viewpoints, job, WeldPipelineSetting(), hooks);
-  // Not found in the sweeps so far: the cell's next rescan (a pass from another side), and the part sought in
-  // all of them.
-  for (size_t k = 0; twin_cell.sweeps_again(result.pose, k); ++k) {
+  // Not found in the sweeps so far, or found with too little to spare: the cell's next rescan (a pass from
+  // another side), and the part sought in all of them.
+  for (size_t k = 0;; ++k) {
+    const std::string why = twin_cell.sweep_again_because(result.pose, k);
+    if (why.empty()) break;
     const std::string stage = step(1, "rescan");
     if (from_log) {
-      say(stage, "not swept again: the sweep came from a log (the cell's rescan needs the arm or the twin)");
+      say(stage,
+          why + "; not swept again: the sweep came from a log (the cell's rescan needs the arm or the twin)");
       break;
     }
     const SweepProgram& rescan = twin_cell.rescans[k];
-    say(stage, "the part was not found in the " + std::string(k == 0 ? "sweep" : "sweeps so far") +
-                   ": sweeping " + rescan.source() + " too, and seeking it in " +
+    run.rescan_reasons.push_back(why);
+    say(stage, "after the " + std::string(k == 0 ? "sweep" : "sweeps so far") + ", " + why + ": sweeping " +
+                   rescan.source() + " too, and seeking it in " +
                    (k == 0 ? "both" : "all " + std::to_string(k + 2)));
     const std::string log_name = k == 0 ? "rescan" : "rescan" + std::to_string(k + 1);
     if (const std::optional<int> stopped =

@@ -473,7 +473,7 @@ int main(int argc, char** argv) {
       out << "part,seed,points,ours_found,ours_reason,ours_seam_max_mm,ours_seam_mean_mm,ours_rot_deg,ours_s,"
              "paper_seam_max_mm,paper_rot_deg,paper_s,false_accepts,ours_radial_mm,ours_tangential_mm,"
              "ours_bound_mm,ours_passes,ours_pass_apart_mm,ours_pass_excess_mm,ours_bound_cells,ours_"
-             "rescanned\n";
+             "rescanned,ours_yaw_bound_deg\n";
       for (const Trial& t : trials) {
         int fa = 0;
         for (const auto& im : t.impostors) fa += im.second.found;
@@ -484,7 +484,8 @@ int main(int argc, char** argv) {
             << rad2deg(t.paper_err.rotation_rad) << ',' << t.paper.seconds << ',' << fa << ','
             << 1e3 * t.radial_m << ',' << 1e3 * t.tangential_m << ',' << 1e3 * t.ours.seam_error_bound_m
             << ',' << t.ours.passes_fitted << ',' << 1e3 * t.ours.pass_apart_m << ','
-            << 1e3 * t.ours.pass_excess_m << ',' << t.ours.bound_cells << ',' << t.rescans << '\n';
+            << 1e3 * t.ours.pass_excess_m << ',' << t.ours.bound_cells << ',' << t.rescans << ','
+            << rad2deg(t.ours.yaw_bound_rad) << '\n';
       }
     }
     std::printf("%-15s %7s %9s %8s %8s %8s %8s %8s %9s %9s %8s\n", "part (method)", "trials", "success",

@@ -1,10 +1,14 @@
 #include "pipeline/twin_cell.hpp"
 
+#include <cmath>
 #include <cstdio>
+#include <limits>
 #include <utility>
 
 #include "core/cell_robot.hpp"
 #include "core/error.hpp"
+#include "perception/localize/pose_uncertainty.hpp"
+#include "perception/localize/verdict.hpp"
 #include "perception/localizer.hpp"
 #include "perception/pose_error.hpp"
 
@@ -54,10 +58,34 @@ TwinCell::TwinCell(CellSpec cell_in, const std::string& sweep_file,
       rescans(load_rescans(cell, sweep_file, rescan_files, program, robot)),
       mesh(load_mesh(part.mesh_path)),
       seam_points(part.seam_points(0.001)),
-      symmetry(z_symmetry_order(mesh)) {}
+      symmetry(z_symmetry_order(mesh)),
+      turn_matters(!seams_turn_onto_themselves(seam_points)) {}
 
-bool TwinCell::sweeps_again(const PoseEstimate& pose, size_t rescanned) const {
-  return rescanned < rescans.size() && !pose.found;
+std::string TwinCell::sweep_again_because(const PoseEstimate& pose, size_t rescanned) const {
+  if (rescanned >= rescans.size()) return "";
+  if (!pose.found) return "the part was not found";
+  // The bounds' 99 % region against their 95 % one, for many cells (chi-square's 3-dof quantiles).
+  PoseUncertaintySetting sure;
+  sure.confidence = kRescanUnlessConfidence;
+  constexpr double kMany = std::numeric_limits<double>::infinity();
+  const double widen = std::sqrt(confidence_scale2(kMany, sure) / confidence_scale2(kMany));
+  const double yaw_tolerance_rad = deg2rad(VerdictSetting().yaw_tolerance_deg);
+  char buf[240] = "";
+  if (widen * pose.seam_error_bound_m > part.weld_tolerance_m)
+    std::snprintf(buf, sizeof buf,
+                  "the part was found, its seams within %.2f mm (%.0f %%) but %.2f mm at %.0f %% (tolerance "
+                  "%.2f mm)",
+                  1e3 * pose.seam_error_bound_m, 100 * PoseUncertaintySetting().confidence,
+                  1e3 * widen * pose.seam_error_bound_m, 100 * kRescanUnlessConfidence,
+                  1e3 * part.weld_tolerance_m);
+  else if (turn_matters && widen * pose.yaw_bound_rad > yaw_tolerance_rad)
+    std::snprintf(buf, sizeof buf,
+                  "the part was found, its turn within %.2f deg (%.0f %%) but %.2f deg at %.0f %% (tolerance "
+                  "%.2f deg)",
+                  rad2deg(pose.yaw_bound_rad), 100 * PoseUncertaintySetting().confidence,
+                  rad2deg(widen * pose.yaw_bound_rad), 100 * kRescanUnlessConfidence,
+                  rad2deg(yaw_tolerance_rad));
+  return buf;
 }
 
 }  // namespace weldtwin

@@ -24,6 +24,10 @@ inline uint64_t rescan_lidar_seed(uint64_t sweep_seed, size_t k) {
   return sweep_seed + (k + 1) * kRescanLidarSeedOffset;
 }
 
+/// While a rescan is left, a pose found is taken only where its bounds at this confidence are within the
+/// tolerances (TwinCell::sweep_again_because).
+constexpr double kRescanUnlessConfidence = 0.99;
+
 struct TwinCell {
   CellSpec cell;
   PartSpec part;
@@ -35,6 +39,7 @@ struct TwinCell {
   Mesh mesh;                      ///< the part's CAD, metres
   std::vector<Vec3> seam_points;  ///< part frame, 1 mm apart: what seam errors are measured on
   int symmetry = 1;               ///< z_symmetry_order of the mesh
+  bool turn_matters = true;       ///< the seams do not turn onto themselves (the part's yaw moves the weld)
 
   /// Loads what `cell` names; `sweep_file` ("" = the cell's own) replaces its sweep program, and with it the
   /// cell's rescans, unless `rescan_files` name others. Throws InputError naming the file that is wrong (a
@@ -42,10 +47,15 @@ struct TwinCell {
   explicit TwinCell(CellSpec cell, const std::string& sweep_file = "",
                     const std::vector<std::string>& rescan_files = {});
 
-  /// Whether the cell sweeps its next rescan when the sweeps so far (the first and `rescanned` rescans) gave
-  /// `pose`: it has one left, and the part (or what was sought) was not found. Every caller that sweeps asks
-  /// this.
-  bool sweeps_again(const PoseEstimate& pose, size_t rescanned) const;
+  /// Why the cell sweeps its next rescan when the sweeps so far (the first and `rescanned` rescans) gave
+  /// `pose` ("": it does not). It does while it has one left and the part (or what was sought) was not found,
+  /// or was found with a pose that the 99 % confidence region would not accept: the verdict's bar is the
+  /// 95 % region, and while another sweep can be had it costs less than a weld that may be off. Every caller
+  /// that sweeps asks this.
+  std::string sweep_again_because(const PoseEstimate& pose, size_t rescanned) const;
+  bool sweeps_again(const PoseEstimate& pose, size_t rescanned) const {
+    return !sweep_again_because(pose, rescanned).empty();
+  }
 };
 
 }  // namespace weldtwin

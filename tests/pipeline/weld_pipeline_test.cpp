@@ -101,6 +101,29 @@ TEST(TwinCell, EachRescanStartsWhereTheProgramBeforeItEndsAndTheyGoWithTheSweepT
   EXPECT_FALSE(cell.sweeps_again(refused, 3));
   EXPECT_FALSE(cell.sweeps_again(found, 0));
   EXPECT_FALSE(TwinCell(CellSpec::load(test::repo("scenes/cells/default.yaml"))).sweeps_again(refused, 0));
+  // While a rescan is left, a pose found is taken only where its 99 % region (1.2 times the 95 % bounds
+  // the verdict takes) is within the tolerances: 1 mm at the seams, 0.5 deg of turn where the turn matters.
+  PoseEstimate near = found;
+  near.seam_error_bound_m = 0.00085;  // 1.02 mm at 99 %
+  EXPECT_TRUE(cell.sweeps_again(near, 0));
+  EXPECT_NE(cell.sweep_again_because(near, 0).find("0.85 mm (95 %) but 1.02 mm at 99 %"), std::string::npos)
+      << cell.sweep_again_because(near, 0);
+  EXPECT_FALSE(cell.sweeps_again(near, 3));  // none left: the verdict's bar
+  near.seam_error_bound_m = 0.0008;          // 0.96 mm at 99 %
+  EXPECT_FALSE(cell.sweeps_again(near, 0));
+  near.yaw_bound_rad = deg2rad(0.43);  // 0.52 deg at 99 %
+  EXPECT_NE(cell.sweep_again_because(near, 1).find("turn within 0.43 deg (95 %) but 0.52 deg at 99 %"),
+            std::string::npos)
+      << cell.sweep_again_because(near, 1);
+  near.yaw_bound_rad = deg2rad(0.40);
+  EXPECT_FALSE(cell.sweeps_again(near, 0));
+  // A full circle's turn moves no weld: only its seam bound counts.
+  CellSpec round = quick;
+  round.part_spec = test::repo("scenes/parts/round_on_plate.yaml");
+  const TwinCell round_cell(round);
+  EXPECT_FALSE(round_cell.turn_matters);
+  near.yaw_bound_rad = deg2rad(5.0);
+  EXPECT_FALSE(round_cell.sweeps_again(near, 0));
   // Another sweep replaces the cell's rescans with it, unless rescans are given as well.
   EXPECT_TRUE(TwinCell(quick, test::repo("scenes/sweeps/crossed_passes.yaml")).rescans.empty());
   const std::string crossing = test::repo("scenes/sweeps/crossing_pass.yaml");
