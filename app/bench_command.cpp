@@ -329,8 +329,9 @@ json run_trial(const BenchCommand& cmd, const BenchCell& c, const Draw& d,
     }
   };
   WeldPipelineResult result = weld_pipeline(cloud.points_base, cloud.viewpoints_base, job, setting, hooks);
-  // The cell's rescans while the part is not found in the sweeps so far: each swept too (their rays are not
-  // the shared ones), and the part sought in all of them, as weldtwin run does.
+  // The cell's rescans while the sweeps so far leave the part not found, or found short of the 99 % bar
+  // (TwinCell::sweep_again_because): each swept too (their rays are not the shared ones), and the part
+  // sought in all of them, as weldtwin run does.
   for (size_t k = 0; c.sweeps_again(result.pose, k); ++k) {
     lidar.seed = rescan_lidar_seed(d.lidar_seed, k);
     options.fixed_rays = nullptr;

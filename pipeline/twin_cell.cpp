@@ -15,8 +15,8 @@
 namespace weldtwin {
 namespace {
 
-constexpr double kSameJoint_rad =
-    1e-6;  // a rescan starts where the program before ends: each joint within this
+// A rescan starts where the program before it ends: each joint within this.
+constexpr double kSameJoint_rad = 1e-6;
 
 // The rescans a cell sweeps: `rescan_files`, or else the cell's own unless another sweep replaced its own;
 // each must start where the program before it ends.

@@ -33,8 +33,9 @@ struct TwinCell {
   PartSpec part;
   RobotModel robot;  ///< as the controller knows it (the URDF's LiDAR mount)
   SweepProgram program;
-  /// Swept one after another while the part is not found (CellSpec::rescan_programs): the first starts where
-  /// `program` ends, each other where the one before it ends
+  /// Swept one after another while the part is not found, or found short of the 99 % bar
+  /// (CellSpec::rescan_programs, sweep_again_because): the first starts where `program` ends, each other
+  /// where the one before it ends
   std::vector<SweepProgram> rescans;
   Mesh mesh;                      ///< the part's CAD, metres
   std::vector<Vec3> seam_points;  ///< part frame, 1 mm apart: what seam errors are measured on
