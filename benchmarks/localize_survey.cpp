@@ -109,7 +109,7 @@ struct Trial {
   PoseError ours_err, paper_err;
   std::vector<std::pair<std::string, PoseEstimate>> impostors;  // must all be refused
   size_t points = 0;
-  size_t rescans = 0;  ///< rescans swept (ours refused the sweeps before each)
+  size_t rescans = 0;  ///< rescans swept (TwinCell::sweep_again_because after the sweeps before each)
   // Ours' position error in the base frame: along the line from the robot's base axis to the part (negative:
   // towards the robot, where the LiDAR looks from) and across it (counter-clockwise) [m].
   double radial_m = 0.0, tangential_m = 0.0;
@@ -189,10 +189,9 @@ int main(int argc, char** argv) {
   std::vector<std::string> rescan_files;
   app.add_option(
          "--rescan", rescan_files,
-         "where the part is refused, sweep this program too (it starts where the sweep ends) and seek "
-         "the part in both sweeps, as a cell with `rescan:` does; given again, the next program swept while "
-         "it "
-         "is still refused, the part sought in all sweeps (default: the cell's own, if any)")
+         "where the part is refused (or found short of the 99 % bar), sweep this program too (it starts "
+         "where the sweep ends) and seek the part in both sweeps, as a cell with `rescan:` does; given "
+         "again, the next program, swept the same way (default: the cell's own, if any)")
       ->allow_extra_args(false);
   app.add_option(
       "--mount-error-mm", mount_error_mm,
@@ -370,8 +369,9 @@ int main(int argc, char** argv) {
         t.ours_err = *found.pose_error;
       };
       find_ours(scan);
-      // The sweeps so far, made once they are needed: where the part (or an impostor) is refused in them, a
-      // cell with rescans sweeps the next and seeks the part in all of them. [k]: the sweep and rescans 0..k.
+      // The sweeps so far, made once they are needed: where they leave the part (or an impostor) refused or
+      // short of the 99 % bar, a cell with rescans sweeps the next and seeks the part in all of them. [k]:
+      // the sweep and rescans 0..k.
       std::vector<Scan> rescanned;
       auto with_rescans = [&](size_t k) -> const Scan& {
         while (rescanned.size() <= k) {
@@ -398,7 +398,7 @@ int main(int argc, char** argv) {
       }
       if (!no_impostors &&
           (impostor_layouts < 0 || t.seed < seed0 + static_cast<uint64_t>(impostor_layouts))) {
-        // Each refused in the sweeps so far is sought again with the next rescan, where the cell has one.
+        // Each sought again with the next rescan as the part is (TwinCell::sweep_again_because).
         auto seek = [&](const Scan& in, const PartData& sought, bool part_absent) {
           std::vector<Vec3> points, viewpoints;
           for (size_t k = 0; k < in.points.size(); ++k)
