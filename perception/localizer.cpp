@@ -318,6 +318,7 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   verdict.rays = out.rays_cast;
   verdict.ambiguity = out.ambiguity;
   verdict.margin_llr = out.margin_llr;
+  verdict.residual_margin_llr = out.residual_margin_llr;
   verdict.rival_offset_m = out.rival_offset_m;
   verdict.rival_turn_rad = out.rival_turn_rad;
   verdict.seam_error_bound_m = out.seam_error_bound_m;

@@ -123,6 +123,7 @@ void build_part_model_at_rest(const Mesh& rest, const PartModelSetting& s, int t
   if (n == 0) return;  // a mesh smaller than the sample spacing: nothing to find (the localizer says so)
   model.visible.resize(n);
   model.view_score.resize(n);
+  model.view_mask.resize(n);
   model.half_thickness.resize(n);
   model.lo = Vec3::Constant(1e9);
   model.hi = Vec3::Constant(-1e9);
@@ -132,6 +133,7 @@ void build_part_model_at_rest(const Mesh& rest, const PartModelSetting& s, int t
       const Vec3& nn = model.nrm[k];
       model.view_score[k] = static_cast<uint8_t>(view_directions(rays, p, nn));
       model.visible[k] = model.view_score[k] > 0;
+      model.view_mask[k] = view_mask(rays, p, nn);
       // Half the distance to the next surface behind the face or facing it: a residual beyond that may
       // belong to the other surface, so trimming there keeps thin walls unbiased.
       const double behind = rays.hit(p, -nn, 1e-5, s.thickness_probe_m),
@@ -146,6 +148,7 @@ void build_part_model_at_rest(const Mesh& rest, const PartModelSetting& s, int t
     model.radius = std::max(model.radius, p.head<2>().norm());
   }
   model.height = model.hi.z();
+  model.view_total = view_totals(model.view_mask, model.nrm);
 
   // Distance of every sample to the nearest feature edge.
   model.edge_distance.assign(n, kFarFromEdges_m);

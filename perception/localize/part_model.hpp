@@ -12,6 +12,7 @@
 #include "perception/localize/closest_grid.hpp"
 #include "perception/localize/grid2.hpp"
 #include "perception/localize/point_tree.hpp"
+#include "perception/localize/view_prior.hpp"
 #include "perception/mesh_io.hpp"
 #include "perception/mesh_rays.hpp"
 
@@ -53,6 +54,8 @@ struct PartModel {
   std::vector<Vec3> pts, nrm;       ///< every face but the underside
   std::vector<uint8_t> visible;     ///< seen from outside (a scanner above the table can see it at all)
   std::vector<uint8_t> view_score;  ///< how many of the test directions see it (more: seen more often)
+  std::vector<uint64_t> view_mask;  ///< which of the directions above see it (view_prior.hpp)
+  std::array<double, kViewDirections> view_total{};  ///< view_totals of the samples (not stored in files)
   std::vector<float> half_thickness, edge_distance;  ///< [m] (edge_distance: 1 m beyond edge_reach_m)
   PointTree tree;
   std::unique_ptr<MeshRays> rays;             ///< the mesh itself, resting on z = 0

@@ -20,9 +20,9 @@ namespace weldtwin {
 namespace {
 
 using Magic = char[8];
-constexpr Magic kMagic = {'W', 'T', 'P', 'A', 'R', 'T', '0', '2'};        // bump the digits with the layout
+constexpr Magic kMagic = {'W', 'T', 'P', 'A', 'R', 'T', '0', '3'};        // bump the digits with the layout
 constexpr Magic kLookupMagic = {'W', 'T', 'L', 'O', 'O', 'K', '0', '2'};  // ... of either file
-constexpr uint64_t kFormat = 2;                                           // ... and this: it joins the key
+constexpr uint64_t kFormat = 3;                                           // ... and this: it joins the key
 constexpr size_t kHeaderBytes = sizeof(Magic) + 2 * sizeof(uint64_t);
 constexpr uintmax_t kMaxFileBytes = uintmax_t{1} << 32;  // a larger file is not one of ours
 
@@ -178,6 +178,7 @@ std::vector<char> payload(const PartModel& m, const Mesh& rest) {
   put_vectors(w, m.nrm);
   w.put_all(m.visible);
   w.put_all(m.view_score);
+  w.put_all(m.view_mask);
   w.put_all(m.half_thickness);
   w.put_all(m.edge_distance);
   put_vec3(w, m.lo);
@@ -216,12 +217,13 @@ bool read_payload(Reader& r, PartModel& m, Mesh& rest) {
     for (int k = 0; k < 3; ++k)
       if (f[k] < 0 || static_cast<size_t>(f[k]) >= rest.vertices.size()) return false;
   if (!get_vectors(r, m.pts) || !get_vectors(r, m.nrm) || !r.get_all(m.visible) || !r.get_all(m.view_score) ||
-      !r.get_all(m.half_thickness) || !r.get_all(m.edge_distance))
+      !r.get_all(m.view_mask) || !r.get_all(m.half_thickness) || !r.get_all(m.edge_distance))
     return false;
   const size_t n = m.pts.size();
-  if (m.nrm.size() != n || m.visible.size() != n || m.view_score.size() != n ||
+  if (m.nrm.size() != n || m.visible.size() != n || m.view_score.size() != n || m.view_mask.size() != n ||
       m.half_thickness.size() != n || m.edge_distance.size() != n)
     return false;
+  m.view_total = view_totals(m.view_mask, m.nrm);
   uint64_t bins = 0;
   if (!get_vec3(r, m.lo) || !get_vec3(r, m.hi) || !r.get(m.radius) || !r.get(m.height) ||
       !r.get(m.spacing_m) || !r.get(m.height_bin_m) || !r.get(bins))

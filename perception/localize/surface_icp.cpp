@@ -13,24 +13,14 @@ constexpr double kMinDirection = 1e-7;   // a centroid closer than this to the s
 constexpr double kWallDirectionZ = 0.5;  // a match whose direction is this level is on a wall
 constexpr double kLevelNormalZ = 0.95;   // ... this steep, on a level face
 
-// -log of how likely a scan point lies on the face at `at` (outward `normal`), by the view score of the
-// model sample there (a sample of the same face: its normal agrees), relative to the best-seen faces.
-double view_prior_nats(const PartModel& m, const Vec3& at, const Vec3& normal, const SurfaceIcpSetting& s) {
+// The model sample of the face at `at` (outward `normal`): the nearest sample, if it is of the same face
+// (its normal agrees), else -1.
+int face_sample(const PartModel& m, const Vec3& at, const Vec3& normal) {
   constexpr double kSameFace = 0.5;     // normals' cosine
   constexpr double kSampleReach = 2.0;  // a point on the mesh has a sample this many spacings away, mostly
   double d2 = 0.0;
   const int k = m.tree.nearest_likely_within(at, kSampleReach * m.spacing_m, d2);
-  const int top = std::max(1, s.max_view_score);
-  int score = top / 2;  // no sample of this face near: neither likely nor unlikely
-  if (k >= 0 && m.nrm[static_cast<size_t>(k)].dot(normal) > kSameFace)
-    score = std::min<int>(top, m.view_score[static_cast<size_t>(k)]);
-  return -s.view_prior_weight * std::log((score + 1.0) / (top + 1.0));
-}
-
-// A point the pose does not explain is taken as unlikely as one on a face no direction sees: otherwise
-// leaving a point out would cost less than matching it with a rarely seen face.
-double unexplained_nats(const SurfaceIcpSetting& s) {
-  return s.view_prior_weight * std::log(std::max(1, s.max_view_score) + 1.0);
+  return k >= 0 && m.nrm[static_cast<size_t>(k)].dot(normal) > kSameFace ? k : -1;
 }
 
 double kernel_m(double noise, const SurfaceIcpSetting& s) {
@@ -42,7 +32,7 @@ double kernel_m(double noise, const SurfaceIcpSetting& s) {
 double residuals(const std::vector<ScanPoint>& pts, const PartModel& m, const Iso3& P, double c,
                  std::vector<ResidualTerm>& terms, int& inliers, std::vector<double>* wall = nullptr,
                  std::vector<double>* level = nullptr, std::vector<double>* wall_r = nullptr,
-                 double* view_nats = nullptr, const SurfaceIcpSetting* s = nullptr) {
+                 std::vector<int>* samples = nullptr, int* unexplained = nullptr) {
   terms.clear();
   inliers = 0;
   double cost = 0.0;
@@ -52,7 +42,7 @@ double residuals(const std::vector<ScanPoint>& pts, const PartModel& m, const Is
     const Vec3 x = P * sp.raw, xs = P * sp.smooth;
     if (!m.surface->closest(xs, 2 * c, at, normal)) {
       cost += cap;
-      if (view_nats) *view_nats += unexplained_nats(*s);
+      if (unexplained) ++*unexplained;
       continue;
     }
     const Vec3 d = xs - at;
@@ -64,13 +54,13 @@ double residuals(const std::vector<ScanPoint>& pts, const PartModel& m, const Is
     const double r = u.dot(x - at);
     if (std::abs(r) >= c) {
       cost += cap;
-      if (view_nats) *view_nats += unexplained_nats(*s);
+      if (unexplained) ++*unexplained;
       continue;
     }
     if (wall_r && std::abs(u.z()) < kWallDirectionZ) wall_r->push_back(std::abs(r));
     const double q = 1.0 - (r / c) * (r / c);
     cost += cap * (1.0 - q * q * q);
-    if (view_nats) *view_nats += view_prior_nats(m, at, normal, *s);
+    if (samples) samples->push_back(face_sample(m, at, normal));
     ResidualTerm t;
     t.J = Vec3(x.x() * u.y() - x.y() * u.x(), u.x(), u.y());
     t.r = r;
@@ -103,12 +93,14 @@ SurfaceFit surface_cost(const std::vector<ScanPoint>& pts, const PartModel& m, c
   SurfaceFit out;
   out.P = P;
   std::vector<double> wall, level, wall_r;
-  double view_nats = 0.0;
+  std::vector<int> samples;
+  int unexplained = 0;
+  const bool prior = s.view.weight > 0;
   out.cost = residuals(pts, m, P, kernel_m(noise, s), out.terms, out.inliers, &wall, &level, &wall_r,
-                       s.view_prior_weight > 0 ? &view_nats : nullptr, &s) /
-                 (noise * noise) +
-             view_nats;
-  out.view_nats = view_nats;
+                       prior ? &samples : nullptr, prior ? &unexplained : nullptr) /
+             (noise * noise);
+  out.view_nats = prior ? view_prior_nats(m, samples, unexplained, s.view) : 0.0;
+  out.cost += out.view_nats;
   out.wall_offset_m = median(wall);
   out.level_offset_m = median(level);
   out.wall_sigma_m = kMadToSigma * median(wall_r);

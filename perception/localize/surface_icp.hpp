@@ -14,6 +14,7 @@
 #include "perception/localize/part_model.hpp"
 #include "perception/localize/pose_uncertainty.hpp"
 #include "perception/localize/scene_points.hpp"
+#include "perception/localize/view_prior.hpp"
 
 namespace weldtwin {
 
@@ -32,11 +33,10 @@ struct SurfaceIcpSetting {
   double coarse_step_m = 2e-5;  ///< ... until a step is shorter than this [m]
   double yaw_lever_m = 0.1;
   double damping = 1e-9;  ///< added to the normal equations' diagonal
-  /// A point is more likely to lie on a face a scanner sees from more directions (the part model's view
-  /// score, 0-4): each matched point adds -log((score + 1) / 5) times this to the cost [nats], so that the
-  /// scan of a wall's outer face does not fit the inner face (seen only past the rim) as well.
-  double view_prior_weight = 1.0;
-  int max_view_score = 4;
+  /// How likely the points are on the faces they are matched with, for a scanner somewhere above
+  /// (view_prior.hpp): the cost adds its nats, so that the scan of a wall's outer face does not fit the
+  /// inner face (seen only past the rim) as well.
+  ViewPriorSetting view;
 };
 
 struct SurfaceFit {

@@ -3,6 +3,7 @@
 // the figures against their limits: free space, coverage, fitness, the walls' patches off the model.
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -123,8 +124,11 @@ struct VerdictInput {
   double ambiguity = 0.0;       ///< with rays: the best distinct rival's support over the best's
   double margin_llr = 0.0;      ///< without rays: log-likelihood ratio over the best fit welding elsewhere
   double rival_offset_m = 0.0;  ///< ... and how far it puts the seams (with rays: the strongest rival) [m]
-  double rival_turn_rad = 0.0;  ///< with rays: the turn between the best and the strongest rival [rad]
-  double seam_error_bound_m = 0.0;           ///< 95 % bound on the seam error from the fit [m]
+  /// ... and the same ratio from the points' distances to the surface alone, without the view prior
+  /// (negative: they prefer that fit) [nats]
+  double residual_margin_llr = std::numeric_limits<double>::infinity();
+  double rival_turn_rad = 0.0;      ///< with rays: the turn between the best and the strongest rival [rad]
+  double seam_error_bound_m = 0.0;  ///< 95 % bound on the seam error from the fit [m]
   Vec3 bound_direction_part = Vec3::Zero();  ///< the direction it is widest in (part frame, level) ...
   double bound_cells = 0.0;                  ///< ... and how many of the scan's cells hold the pose that way
   double yaw_bound_rad = 0.0;                ///< 95 % bound on the turn about the table normal [rad]

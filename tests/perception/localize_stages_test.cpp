@@ -39,7 +39,8 @@ namespace {
 // sensor_y, 0.45 m up, from x = 0.1 to 0.8 m: rays towards random points of the part's box and of the table
 // around it, the nearest hit of the part or the table, moved along the ray by N(0, sigma).
 std::vector<Vec3> one_sided_scan(const Mesh& mesh, const Iso3& T_base_part, double sensor_y, double sigma,
-                                 uint64_t seed, std::vector<Vec3>* viewpoints = nullptr) {
+                                 uint64_t seed, std::vector<Vec3>* viewpoints = nullptr,
+                                 double sensor_z = 0.45) {
   const MeshRays rays(mesh);
   Vec3 lo = Vec3::Constant(1e9), hi = Vec3::Constant(-1e9);
   for (const Vec3& v : mesh.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
@@ -49,7 +50,7 @@ std::vector<Vec3> one_sided_scan(const Mesh& mesh, const Iso3& T_base_part, doub
   const Iso3 T_part_base = T_base_part.inverse();
   std::vector<Vec3> cloud;
   for (int i = 0; i < 60000; ++i) {
-    const Vec3 sensor(0.1 + 0.7 * u(rng), sensor_y, 0.45);
+    const Vec3 sensor(0.1 + 0.7 * u(rng), sensor_y, sensor_z);
     Vec3 target;
     if (i % 2 == 0) {  // the part's box
       target = T_base_part * Vec3(lo.x() + (hi.x() - lo.x()) * u(rng), lo.y() + (hi.y() - lo.y()) * u(rng),
@@ -345,7 +346,7 @@ TEST(LocalizeStages, TheViewPriorMakesTheWrongSideOfAWallCostlier) {
   Prepared p = prepare(sc);
   const Iso3 P0 = truth_P(p, sc);
   SurfaceIcpSetting plain;
-  plain.view_prior_weight = 0.0;
+  plain.view.weight = 0.0;
   for (const Eigen::Vector2d& d : p.model.wall_side_shifts) {
     const Iso3 wrong = planar_pose(d.x(), d.y(), 0.0, 0.0) * P0;
     const std::vector<ScanPoint> pts = surface_points(p.scene.icp_points, p.model, P0, 0.008);
@@ -354,6 +355,28 @@ TEST(LocalizeStages, TheViewPriorMakesTheWrongSideOfAWallCostlier) {
     const double without = surface_cost(pts, p.model, wrong, p.noise, plain).cost -
                            surface_cost(pts, p.model, P0, p.noise, plain).cost;
     EXPECT_GT(with_prior, without + 20.0) << d.transpose();
+  }
+}
+
+TEST(LocalizeStages, TheViewPriorHoldsForAScannerLookingSteeplyIntoTheTube) {
+  // The LiDAR passes 700 mm above the table, beside the tube's axis or over it: it looks down into the
+  // tube and sees the inside of its walls near the rim about as well as their outer faces. A prior that
+  // takes inner faces as rarely seen gives the wrong side of a wall almost nothing to pay here (2-16 nats
+  // with the four fixed test directions); the mixture of directions, fitted to the points, still charges
+  // it for what it then makes of the rest of the scan.
+  for (double sensor_y : {0.04, 0.12, 0.16}) {
+    Scene sc = tube_scene(0.0015, 4);
+    sc.cloud = one_sided_scan(sc.mesh, sc.truth, sensor_y, 0.0015, 4, nullptr, 0.7);
+    Prepared p = prepare(sc);
+    const Iso3 P0 = truth_P(p, sc);
+    const std::vector<ScanPoint> pts = surface_points(p.scene.icp_points, p.model, P0, 0.008);
+    const double right = surface_cost(pts, p.model, P0, p.noise).view_nats;
+    for (const Eigen::Vector2d& d : p.model.wall_side_shifts)
+      for (double sign : {-1.0, 1.0}) {
+        const Iso3 wrong = planar_pose(sign * d.x(), sign * d.y(), 0.0, 0.0) * P0;
+        EXPECT_GT(surface_cost(pts, p.model, wrong, p.noise).view_nats - right, 50.0)
+            << "LiDAR at y " << sensor_y << ", the part moved by " << sign * d.transpose();
+      }
   }
 }
 
@@ -395,6 +418,26 @@ VerdictInput passing_figures() {
   in.seam_error_bound_m = 0.0005;
   in.yaw_bound_rad = deg2rad(0.1);
   return in;
+}
+
+TEST(LocalizeStages, AWallSideTheDistancesContestIsNotTaken) {
+  // Without viewpoints, the view prior chose the best fit by e^100 over one 3.2 mm away (across a wall).
+  VerdictInput in = passing_figures();
+  in.rival_offset_m = 0.0032;
+  in.residual_margin_llr = 30.0;  // the distances agree
+  EXPECT_EQ(verdict_reason(in), "");
+  in.residual_margin_llr = -10.0;  // they prefer the other side, but not decisively
+  EXPECT_EQ(verdict_reason(in), "");
+  in.residual_margin_llr = -20.0;  // decisively: the two disagree
+  EXPECT_NE(verdict_reason(in).find("contested: the points lie closer to the part's surface with the seams "
+                                    "3.2 mm away (likelihood ratio e^20.0)"),
+            std::string::npos)
+      << verdict_reason(in);
+  in.rival_offset_m = 0.0008;  // a rival that welds within the tolerance changes nothing for the weld
+  EXPECT_EQ(verdict_reason(in), "");
+  in.rival_offset_m = 0.0032;
+  in.rays = true;  // with viewpoints the rays decide, not the prior
+  EXPECT_EQ(verdict_reason(in), "");
 }
 
 TEST(LocalizeStages, AnEdgeCutInTwoByTheMeshIsOneEdgeOfThePart) {

@@ -77,6 +77,8 @@ TEST(PartModelFile, AModelReadBackIsTheModelBuilt) {
   EXPECT_TRUE(same(read.nrm, built.nrm));
   EXPECT_TRUE(same(read.visible, built.visible));
   EXPECT_TRUE(same(read.view_score, built.view_score));
+  EXPECT_TRUE(same(read.view_mask, built.view_mask));
+  EXPECT_EQ(read.view_total, built.view_total);  // recomputed from the masks and normals read
   EXPECT_TRUE(same(read.half_thickness, built.half_thickness));
   EXPECT_TRUE(same(read.edge_distance, built.edge_distance));
   EXPECT_EQ(read.lo, built.lo);
