@@ -28,6 +28,7 @@ crossed="--sweep $here/scenes/sweeps/crossed_passes.yaml"
 rescan="--rescan $here/scenes/sweeps/crossing_pass.yaml"
 # The rescans of scenes/cells/quick_sweep.yaml: each swept only while the part is still refused.
 rescans="$rescan --rescan $here/scenes/sweeps/outer_passes.yaml --rescan $here/scenes/sweeps/inner_pass.yaml"
+rescans="$rescans --rescan $here/scenes/sweeps/inner_plus_pass.yaml"
 # The range noise of the seed paper's real scan: its table spreads 0.95 mm (the twin's default, 1.5 mm + 0.25 %
 # of the range, spreads 2.3 mm there; 1.4 mm flat spreads about 0.95 mm).
 real_noise="--lidar noise_sigma_m=0.0014 --lidar noise_sigma_rel=0"

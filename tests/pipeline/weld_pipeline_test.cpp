@@ -89,16 +89,17 @@ TEST(WeldPipeline, ThePartsWeldToleranceIsTheBarOfTheLocalizerAndTheJudgement) {
 TEST(TwinCell, EachRescanStartsWhereTheProgramBeforeItEndsAndTheyGoWithTheSweepTheyFollow) {
   const CellSpec quick = CellSpec::load(test::repo("scenes/cells/quick_sweep.yaml"));
   const TwinCell cell(quick);
-  ASSERT_EQ(cell.rescans.size(), 3u);
+  ASSERT_EQ(cell.rescans.size(), 4u);
   EXPECT_LT((cell.rescans[0].start() - cell.program.moves().back().to).cwiseAbs().maxCoeff(), 1e-9);
   EXPECT_LT((cell.rescans[1].start() - cell.rescans[0].moves().back().to).cwiseAbs().maxCoeff(), 1e-9);
   EXPECT_LT((cell.rescans[2].start() - cell.rescans[1].moves().back().to).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((cell.rescans[3].start() - cell.rescans[2].moves().back().to).cwiseAbs().maxCoeff(), 1e-9);
   // Swept in turn while the part is not found, and no more than the cell has.
   PoseEstimate refused, found;
   found.found = true;
   EXPECT_TRUE(cell.sweeps_again(refused, 0));
-  EXPECT_TRUE(cell.sweeps_again(refused, 2));
-  EXPECT_FALSE(cell.sweeps_again(refused, 3));
+  EXPECT_TRUE(cell.sweeps_again(refused, 3));
+  EXPECT_FALSE(cell.sweeps_again(refused, 4));
   EXPECT_FALSE(cell.sweeps_again(found, 0));
   EXPECT_FALSE(TwinCell(CellSpec::load(test::repo("scenes/cells/default.yaml"))).sweeps_again(refused, 0));
   // While a rescan is left, a pose found is taken only where its 99 % region (1.2 times the 95 % bounds
@@ -108,7 +109,7 @@ TEST(TwinCell, EachRescanStartsWhereTheProgramBeforeItEndsAndTheyGoWithTheSweepT
   EXPECT_TRUE(cell.sweeps_again(near, 0));
   EXPECT_NE(cell.sweep_again_because(near, 0).find("0.85 mm (95 %) but 1.02 mm at 99 %"), std::string::npos)
       << cell.sweep_again_because(near, 0);
-  EXPECT_FALSE(cell.sweeps_again(near, 3));  // none left: the verdict's bar
+  EXPECT_FALSE(cell.sweeps_again(near, 4));  // none left: the verdict's bar
   near.seam_error_bound_m = 0.0008;          // 0.96 mm at 99 %
   EXPECT_FALSE(cell.sweeps_again(near, 0));
   near.yaw_bound_rad = deg2rad(0.43);  // 0.52 deg at 99 %
