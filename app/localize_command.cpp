@@ -52,6 +52,10 @@ CLI::App* add_localize_command(CLI::App& app, LocalizeCommand& cmd) {
         "as the baseline (it has no verdict and answers even when wrong)")
       ->check(CLI::IsMember({"ours", "paper"}));
   lc->add_option("--out", cmd.out, "pose JSON to write")->required();
+  lc->add_option("--table-top-z-mm", cmd.table_top_z_mm,
+                 "where the cell's table top is (the plane z = this in the base frame) [mm]: a scan that "
+                 "shows the table elsewhere is refused, as assembled through a LiDAR mount that is off "
+                 "(default: not checked)");
   lc->add_option("--part-cache", cmd.part_cache,
                  "folder where the prepared part (its samples, visibility, edges, footprint) is kept between "
                  "runs, so that the next localization of the same part skips preparing it (default: " +
@@ -124,10 +128,12 @@ int run_localize(LocalizeCommand cmd) {
   // Seam points from the part spec, when given: poses that weld the same place are not ambiguous, and its
   // weld tolerance is the bound a pose must meet.
   const std::vector<Vec3> seam_points = part ? part->seam_points(0.001) : std::vector<Vec3>();
+  LocalizeSetting finding;
+  finding.table.cell_top_z_m = 1e-3 * cmd.table_top_z_mm;
   const PoseEstimate pose =
       cmd.method == "paper"
           ? localize_paper(cloud, mesh)
-          : localize(cloud, *prepared, part ? localize_setting_for(*part) : LocalizeSetting(), seam_points,
+          : localize(cloud, *prepared, part ? localize_setting_for(*part, finding) : finding, seam_points,
                      viewpoints);
 
   nlohmann::json out = pose_to_json(pose);

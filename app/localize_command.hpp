@@ -4,6 +4,7 @@
 // (app/cell_main.cpp).
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,8 @@ struct LocalizeCommand {
   bool quiet = false;
   std::string part_cache;  ///< folder of prepared parts kept between runs ("" before the default is applied)
   bool no_part_cache = false;
+  /// Where the cell's table top is (the plane z = this in the base frame) [mm]; NaN: not checked
+  double table_top_z_mm = std::numeric_limits<double>::quiet_NaN();
   std::string roi_text;  ///< --roi as given (six numbers, commas between), read into `roi` by run_localize
 };
 

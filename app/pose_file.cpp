@@ -67,6 +67,11 @@ nlohmann::json pose_to_json(const PoseEstimate& pose) {
     out["pass_apart_mm"] = 1e3 * pose.pass_apart_m;
     out["pass_excess_mm"] = 1e3 * pose.pass_excess_m;
   }
+  if (pose.table_known)  // the table the scan shows against the cell's (table_plane.hpp)
+    out["table_against_cell"] = {{"height_mm", 1e3 * pose.table.height_m},
+                                 {"tilt_deg", rad2deg(pose.table.tilt_rad)},
+                                 {"seam_shift_mm", 1e3 * pose.table.shift_m},
+                                 {"mount_off", pose.table_off}};
   out["beyond_share"] = pose.beyond_share;
   out["beyond_extent_mm"] = 1e3 * pose.beyond_extent_m;
   out["beyond_edge"] = {{"share", pose.beyond_line_share},

@@ -348,6 +348,14 @@ PoseEstimate localize(const std::vector<Vec3>& scan_base, const PreparedPart& pa
   verdict.beyond_line_share = out.beyond_line_share;
   verdict.beyond_line_length_m = out.beyond_line_length_m;
   verdict.beyond_line_at_part = out.beyond_line_at_part;
+  if (std::isfinite(s.table.cell_top_z_m)) {
+    std::vector<Vec3> seams_base;
+    for (const Vec3& p : seams.empty() ? seam_error_at : seams)
+      seams_base.push_back(scene.T_base_table * best.P.inverse() * p);
+    verdict.table_known = out.table_known = true;
+    verdict.table = out.table = table_discrepancy(table.plane, s.table.cell_top_z_m, seams_base);
+    out.table_off = table_is_off(verdict, s.verdict);
+  }
   const std::string reason = verdict_reason(verdict, s.verdict);
   out.found = reason.empty();
   return finish(reason);

@@ -140,6 +140,12 @@ struct PoseEstimate {
   /// disagree most put the seams farther apart than their 95 % bound allows [m] (and how far apart [m]).
   int passes_fitted = 0;
   double pass_excess_m = 0.0, pass_apart_m = 0.0;
+  /// Where the cell's table is known (TablePlaneSetting::cell_top_z_m): the table the scan shows against it
+  /// (table_plane.hpp), and whether that alone refused the pose: the LiDAR's mount is off, and sweeping
+  /// again through it cannot help.
+  bool table_known = false;
+  TableDiscrepancy table;
+  bool table_off = false;
   /// Where the prepared part came from: "off" (built, nothing kept), "read" (a file of an earlier run),
   /// "written" (built and kept for the next run), "not written: <why>" (built)
   std::string part_file = "off";

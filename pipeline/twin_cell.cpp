@@ -63,6 +63,8 @@ TwinCell::TwinCell(CellSpec cell_in, const std::string& sweep_file,
 
 std::string TwinCell::sweep_again_because(const PoseEstimate& pose, size_t rescanned) const {
   if (rescanned >= rescans.size()) return "";
+  // The table seen off the cell's: the LiDAR's mount is off, and every sweep through it is off alike.
+  if (pose.table_off) return "";
   if (!pose.found) return "the part was not found";
   // The bounds' 99 % region against their 95 % one, for many cells (chi-square's 3-dof quantiles).
   PoseUncertaintySetting sure;

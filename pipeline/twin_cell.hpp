@@ -51,8 +51,9 @@ struct TwinCell {
   /// Why the cell sweeps its next rescan when the sweeps so far (the first and `rescanned` rescans) gave
   /// `pose` ("": it does not). It does while it has one left and the part (or what was sought) was not found,
   /// or was found with a pose that the 99 % confidence region would not accept: the verdict's bar is the
-  /// 95 % region, and while another sweep can be had it costs less than a weld that may be off. Every caller
-  /// that sweeps asks this.
+  /// 95 % region, and while another sweep can be had it costs less than a weld that may be off. Not when the
+  /// scan showed the table off the cell's (PoseEstimate::table_off): the LiDAR's mount is off, and another
+  /// sweep through it would be off alike. Every caller that sweeps asks this.
   std::string sweep_again_because(const PoseEstimate& pose, size_t rescanned) const;
   bool sweeps_again(const PoseEstimate& pose, size_t rescanned) const {
     return !sweep_again_because(pose, rescanned).empty();

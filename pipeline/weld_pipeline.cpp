@@ -14,6 +14,11 @@ TwinScene::TwinScene(const TwinCell& c, const CellLayout& layout, const Iso3& mo
                      : c.robot.with_mount_offset(SweepOptions().lidar_link, mount_error)),
       world(c.cell, twin_part ? *twin_part : c.part, real_robot, layout) {}
 
+LocalizeSetting localize_setting_for(const TwinCell& cell, LocalizeSetting base) {
+  base.table.cell_top_z_m = cell.cell.table.top_z_m;
+  return localize_setting_for(cell.part, base);
+}
+
 ReplayResult replay_in_twin(const TwinCell& cell, const TwinScene& twin, const WeldPlan& plan,
                             const Iso3& T_base_part_twin, ReplaySetting setting) {
   setting.max_seam_error_m = cell.part.weld_tolerance_m;
@@ -31,7 +36,7 @@ WeldPipelineResult weld_pipeline(const std::vector<Vec3>& scan, const std::vecto
   WeldPipelineResult r;
 
   // 1. Find the part.
-  const LocalizeSetting finding = localize_setting_for(c.part, setting.localize);
+  const LocalizeSetting finding = localize_setting_for(c, setting.localize);
   const std::vector<Vec3> no_viewpoints;
   const std::vector<Vec3>& rays = setting.viewpoints ? viewpoints : no_viewpoints;
   r.pose = job.prepared ? localize(scan, *job.prepared, finding, c.seam_points, rays)

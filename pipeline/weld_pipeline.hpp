@@ -69,6 +69,10 @@ struct WeldPipelineHooks {
   std::function<void(PipelineStage, const WeldPipelineResult&)> stage_done;
 };
 
+/// The localizer's setting for the cell's part (localize_setting_for) with where the cell has its table: a
+/// scan that shows it elsewhere is refused (the LiDAR's mount is off).
+LocalizeSetting localize_setting_for(const TwinCell& cell, LocalizeSetting base = {});
+
 /// The replay stage alone: `plan` on the twin's arm, the part at `T_base_part_twin`, the seams judged with
 /// the part's weld tolerance (`setting`'s seam limit is replaced by it).
 ReplayResult replay_in_twin(const TwinCell& cell, const TwinScene& twin, const WeldPlan& plan,

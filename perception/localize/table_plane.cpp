@@ -191,4 +191,24 @@ Iso3 table_frame(const Eigen::Vector4d& plane) {
   return make_transform(origin, R);   // T_base_table
 }
 
+TableDiscrepancy table_discrepancy(const Eigen::Vector4d& plane, double top_z_m,
+                                   const std::vector<Vec3>& points_base) {
+  TableDiscrepancy out;
+  const Vec3 n = plane.head<3>().normalized();
+  const double d = plane[3] / plane.head<3>().norm();
+  out.tilt_rad = std::atan2(n.head<2>().norm(), n.z());
+  if (points_base.empty()) return out;
+  // The scan's table's height above (x, y): where n.p + d = 0.
+  auto height_at = [&](double x, double y) { return -(n.x() * x + n.y() * y + d) / n.z() - top_z_m; };
+  Vec3 middle = Vec3::Zero();
+  for (const Vec3& p : points_base) {
+    const double lean = std::max(0.0, p.z() - top_z_m) * std::tan(out.tilt_rad);
+    out.shift_m = std::max(out.shift_m, std::abs(height_at(p.x(), p.y())) + lean);
+    middle += p;
+  }
+  middle /= static_cast<double>(points_base.size());
+  out.height_m = height_at(middle.x(), middle.y());
+  return out;
+}
+
 }  // namespace weldtwin

@@ -4,6 +4,7 @@
 // that sets every later threshold.
 #pragma once
 
+#include <limits>
 #include <vector>
 
 #include "core/geometry.hpp"
@@ -27,6 +28,10 @@ struct TablePlaneSetting {
   double min_band_m = 0.002;         ///< the band's least half-width [m]
   double raised_cell_m = 0.01;       ///< cells where something stands on the table are left out [m]
   double max_raised_height_m = 0.5;  ///< points this far above the plane are not the feet of anything [m]
+  /// Where the cell has its table top, when it is known: the plane z = this in the base frame (NaN: not
+  /// known, as for a cloud from elsewhere). A scan whose table lies elsewhere was assembled through a LiDAR
+  /// mount that is off (TableDiscrepancy) [m]
+  double cell_top_z_m = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct TablePlane {
@@ -37,6 +42,18 @@ struct TablePlane {
 
 /// The table in `scan_base` (see the file comment); `found` false if there is none.
 TablePlane find_table_plane(const std::vector<Vec3>& scan_base, const TablePlaneSetting& setting = {});
+
+/// How far the table a scan shows (`plane`) lies from the cell's (the plane z = `top_z_m`), where it matters:
+/// the localizer stands the part on the table it sees, so a point of the part rises or sinks by the two
+/// planes' height difference under it, and one h above the table leans sideways by h times their angle.
+struct TableDiscrepancy {
+  double shift_m = 0.0;   ///< the most any of the points moves by that alone (height + lean) [m]
+  double height_m = 0.0;  ///< the scan's table above the cell's under the points' middle [m]
+  double tilt_rad = 0.0;  ///< the angle between the two planes [rad]
+};
+/// ... for `points_base` (the part's seams where they were found, base frame).
+TableDiscrepancy table_discrepancy(const Eigen::Vector4d& plane, double top_z_m,
+                                   const std::vector<Vec3>& points_base);
 
 /// A frame on the plane: z along its normal, origin the plane point nearest the base origin (T_base_table).
 Iso3 table_frame(const Eigen::Vector4d& plane);

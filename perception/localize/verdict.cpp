@@ -136,6 +136,10 @@ std::string part_direction_name(const Vec3& d) {
   return buf;
 }
 
+bool table_is_off(const VerdictInput& in, const VerdictSetting& s) {
+  return in.table_known && in.table.shift_m > s.max_table_shift_share * s.weld_tolerance_m;
+}
+
 std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
   const Score& best = in.score;
   const double fitness = best.region ? static_cast<double>(best.inliers) / best.region : 0.0;
@@ -145,6 +149,17 @@ std::string verdict_reason(const VerdictInput& in, const VerdictSetting& s) {
           ? "at the seams"
           : "somewhere on the part (no seams given: with the part spec the bound is taken at its seams)";
   char buf[600];
+  // The table first: a scan assembled through a mount that is off is off everywhere.
+  if (table_is_off(in, s)) {
+    std::snprintf(
+        buf, sizeof buf,
+        "the table is seen %.1f mm %s where the cell has it and tilted %.2f deg, which alone moves the seams "
+        "%.1f mm (%.1f mm allowed): the LiDAR's mount is off: calibrate it (weldtwin calibrate), or, if "
+        "the cell file's table top_z_m is not where the table is, correct it",
+        1e3 * std::abs(in.table.height_m), in.table.height_m > 0 ? "above" : "below",
+        rad2deg(in.table.tilt_rad), 1e3 * in.table.shift_m, 1e3 * s.max_table_shift_share * tol);
+    return buf;
+  }
   if (best.free_space > in.max_free_space) return "the table is seen where the best match would stand";
   if (in.rays && in.see_through_share > in.max_see_through_share) {
     std::snprintf(buf, sizeof buf,

@@ -10,6 +10,7 @@
 #include "perception/localize/part_model.hpp"
 #include "perception/localize/planar_icp.hpp"
 #include "perception/localize/pose_score.hpp"
+#include "perception/localize/table_plane.hpp"
 
 namespace weldtwin {
 
@@ -57,6 +58,11 @@ struct VerdictSetting {
   /// floor of 20 % are all refused by the tests after it (fitness, the scan past the model's edges or up past
   /// a top edge, the walls' patches, the rays through one region, the bound)
   double min_coverage_with_rays = 0.05;
+  /// Where the cell's table is known, the table the scan shows may move the seams by at most this share of
+  /// the weld tolerance by itself (TableDiscrepancy): beyond, the LiDAR's mount is off, and a mount off that
+  /// much moves them along the table too, where the table cannot show it. In the twin, a calibrated mount
+  /// leaves the table within 0.1 mm and 0.015 deg; one off by 5 mm and 0.5 deg per axis, 1-20 mm [share]
+  double max_table_shift_share = 0.5;
 };
 
 /// A refined pose and its figures.
@@ -162,7 +168,13 @@ struct VerdictInput {
   /// the seams, each fitted alone [m] (pass_agreement.hpp) ...
   double pass_excess_m = 0.0;
   double pass_apart_m = 0.0;  ///< ... and how far apart [m]
+  bool table_known = false;   ///< the cell's table is known: `table` is the scan's against it
+  TableDiscrepancy table;
 };
+
+/// Whether the table the scan shows lies so far from the cell's (when known) that it alone moves the seams
+/// beyond max_table_shift_share of the weld tolerance: the LiDAR's mount is off.
+bool table_is_off(const VerdictInput& in, const VerdictSetting& setting = {});
 
 /// Why the figures refuse the pose, or "" when they accept it: in words a person can act on.
 std::string verdict_reason(const VerdictInput& in, const VerdictSetting& setting = {});

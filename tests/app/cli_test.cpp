@@ -242,6 +242,19 @@ TEST(Cli, ScanWritesLogCloudAndTruth) {
   std::ifstream(dir / "b.json") >> b;
   EXPECT_TRUE(a["found"].get<bool>());
   EXPECT_EQ(a["T_base_part"], b["T_base_part"]);
+  // The cell's table top given: where the twin has it (z = 0), found the same; given 3 mm higher than the
+  // scan shows it, refused as a mount that is off.
+  const std::string with_table = "localize -q --part " + spec + " --scan " + scan + " --table-top-z-mm ";
+  ASSERT_EQ(weldtwin(with_table + "0 --out " + (dir / "d.json").string()).code, 0);
+  nlohmann::json d, e;
+  std::ifstream(dir / "d.json") >> d;
+  EXPECT_EQ(a["T_base_part"], d["T_base_part"]);
+  EXPECT_EQ(weldtwin(with_table + "3 --out " + (dir / "e.json").string()).code, 3);
+  std::ifstream(dir / "e.json") >> e;
+  EXPECT_FALSE(e["found"].get<bool>());
+  EXPECT_EQ(e["reason"].get<std::string>().rfind("the table is seen 3.0 mm below where the cell has it", 0),
+            0u)
+      << e["reason"];
   expect_bad_input(weldtwin("localize --scan " + scan + " --out " + (dir / "c.json").string()),
                    "--part SPEC");
 }

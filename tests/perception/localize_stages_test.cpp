@@ -440,6 +440,55 @@ TEST(LocalizeStages, AWallSideTheDistancesContestIsNotTaken) {
   EXPECT_EQ(verdict_reason(in), "");
 }
 
+TEST(LocalizeStages, ATableSeenOffTheCellsMovesThePartByItsHeightAndLean) {
+  // The scan's table 2 mm above the cell's (z = 0), then also tilted 0.1 deg about the base's x axis.
+  const std::vector<Vec3> seams = {{0.5, 0.3, 0.1}, {0.4, -0.2, 0.0}};
+  const TableDiscrepancy raised = table_discrepancy(Eigen::Vector4d(0, 0, 1, -0.002), 0.0, seams);
+  EXPECT_NEAR(raised.shift_m, 0.002, 1e-12);
+  EXPECT_NEAR(raised.height_m, 0.002, 1e-12);
+  EXPECT_NEAR(raised.tilt_rad, 0.0, 1e-12);
+  const double t = deg2rad(0.1);
+  // Normal (0, -sin t, cos t) through z = 2 mm at the origin: the plane rises y tan t along y.
+  const Eigen::Vector4d tilted(0, -std::sin(t), std::cos(t), -0.002 * std::cos(t));
+  const TableDiscrepancy both = table_discrepancy(tilted, 0.0, seams);
+  EXPECT_NEAR(both.tilt_rad, t, 1e-12);
+  // At (0.5, 0.3, 0.1): 2 mm + 0.3 tan t under it, and 0.1 m up leaning 0.1 tan t; at (0.4, -0.2, 0): 2 mm -
+  // 0.2 tan t. The middle (0.45, 0.05): 2 mm + 0.05 tan t.
+  EXPECT_NEAR(both.shift_m, 0.002 + 0.4 * std::tan(t), 1e-12);
+  EXPECT_NEAR(both.height_m, 0.002 + 0.05 * std::tan(t), 1e-12);
+  // The cell's table top elsewhere: measured from it.
+  EXPECT_NEAR(table_discrepancy(Eigen::Vector4d(0, 0, 1, -0.002), 0.0025, seams).height_m, -0.0005, 1e-12);
+}
+
+TEST(LocalizeStages, ATableSeenOffTheCellsIsRefusedAsAMountThatIsOff) {
+  VerdictInput in = passing_figures();
+  in.table.shift_m = 0.003, in.table.height_m = -0.0029, in.table.tilt_rad = deg2rad(0.05);
+  EXPECT_EQ(verdict_reason(in), "");  // the cell's table not known (a cloud from elsewhere): not judged
+  in.table_known = true;
+  EXPECT_EQ(verdict_reason(in),
+            "the table is seen 2.9 mm below where the cell has it and tilted 0.05 deg, which alone moves the "
+            "seams 3.0 mm (0.5 mm allowed): the LiDAR's mount is off: calibrate it (weldtwin calibrate), or, "
+            "if the cell file's table top_z_m is not where the table is, correct it");
+  in.table.shift_m = 0.0004;  // within half the weld tolerance
+  EXPECT_EQ(verdict_reason(in), "");
+
+  // The whole localizer on a scene found where its table is, then on the same scene raised 2 mm: the scan's
+  // table no longer where the cell has it.
+  const Scene sc = tube_scene(0.0008, 1);
+  const std::vector<Vec3> seams = sc.part.seam_points(0.001);
+  LocalizeSetting setting;
+  setting.table.cell_top_z_m = 0.0;
+  const PoseEstimate right = localize(sc.cloud, sc.mesh, setting, seams);
+  ASSERT_TRUE(right.found) << right.reason;
+  std::vector<Vec3> raised = sc.cloud;
+  for (Vec3& p : raised) p.z() += 0.002;
+  const PoseEstimate off = localize(raised, sc.mesh, setting, seams);
+  EXPECT_FALSE(off.found);
+  EXPECT_EQ(off.reason.rfind("the table is seen 2.0 mm above where the cell has it", 0), 0u) << off.reason;
+  setting.table.cell_top_z_m = 0.002;  // the cell's table there too
+  EXPECT_TRUE(localize(raised, sc.mesh, setting, seams).found);
+}
+
 TEST(LocalizeStages, AnEdgeCutInTwoByTheMeshIsOneEdgeOfThePart) {
   // A 100 x 60 x 40 mm box whose front top edge is two mesh edges (a vertex at its middle).
   Mesh box;

@@ -102,6 +102,11 @@ TEST(TwinCell, EachRescanStartsWhereTheProgramBeforeItEndsAndTheyGoWithTheSweepT
   EXPECT_FALSE(cell.sweeps_again(refused, 4));
   EXPECT_FALSE(cell.sweeps_again(found, 0));
   EXPECT_FALSE(TwinCell(CellSpec::load(test::repo("scenes/cells/default.yaml"))).sweeps_again(refused, 0));
+  // Refused because the scan's table is not where the cell has it: the LiDAR's mount is off, and a sweep
+  // through it again would be off alike.
+  PoseEstimate mount_off = refused;
+  mount_off.table_known = mount_off.table_off = true;
+  EXPECT_FALSE(cell.sweeps_again(mount_off, 0));
   // While a rescan is left, a pose found is taken only where its 99 % region (1.2 times the 95 % bounds
   // the verdict takes) is within the tolerances: 1 mm at the seams, 0.5 deg of turn where the turn matters.
   PoseEstimate near = found;
