@@ -97,6 +97,20 @@ PoseError pose_error(const PartSpec& part, const Iso3& estimate, const Iso3& tru
   return e;
 }
 
+double seam_distance_m(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+  auto farthest = [](const std::vector<Vec3>& from, const std::vector<Vec3>& to) {
+    double worst2 = 0.0;
+    for (const Vec3& p : from) {
+      double best2 = std::numeric_limits<double>::infinity();
+      for (const Vec3& q : to) best2 = std::min(best2, (p - q).squaredNorm());
+      worst2 = std::max(worst2, best2);
+    }
+    return worst2;
+  };
+  if (a.empty() || b.empty()) return std::numeric_limits<double>::infinity();
+  return std::sqrt(std::max(farthest(a, b), farthest(b, a)));
+}
+
 SampleTruth read_sample_truth(const std::string& file) {
   std::ifstream in(file);
   if (!in) throw input_error(file, "cannot open the truth file");

@@ -28,6 +28,11 @@ int z_symmetry_order(const Mesh& mesh, double tolerance_m = 2e-4);
 /// Errors of `estimate` against `truth` (both T_base_part). `symmetry_order` as z_symmetry_order().
 PoseError pose_error(const PartSpec& part, const Iso3& estimate, const Iso3& truth, int symmetry_order = 1);
 
+/// How far apart two sets of seam points are, both ways (the symmetric Hausdorff distance of the two sets)
+/// [m]. For a part that is not its CAD: the CAD's seams where a pose puts them against the part's own seams
+/// where they really are, each densely sampled (their spacing adds up to half of it).
+double seam_distance_m(const std::vector<Vec3>& a, const std::vector<Vec3>& b);
+
 /// The truth of a sample scan (`truth.json` beside `scan.pcd`: T_base_part, and the seams as line segments
 /// in the part frame under `seams_part`) as a pose and a part holding those seams. Throws InputError.
 struct SampleTruth {

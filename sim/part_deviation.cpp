@@ -47,16 +47,20 @@ DeviatedPart deviate_part(const Mesh& cad, const std::vector<Vec3>& seam_points,
   out.bend_axis = ext.x() >= ext.y() ? 0 : 1;
   out.bend_rad = s.bend_deg * kPi / 180.0 * (2.0 * u01(rng) - 1.0);
   const double length = ext[out.bend_axis];
-  const double curvature = length > 0.0 ? out.bend_rad / length : 0.0;  // the angle spread over the length
-  for (Vec3& v : out.mesh.vertices) {
-    Vec3 p = centre + (v - centre).cwiseProduct(out.scale);
-    p.z() = lo.z() + (v.z() - lo.z()) * out.scale.z();  // it still rests on its lowest face
-    // A circular arc of small angle: the offset across grows with the square of the distance from the middle.
-    const double along = p[out.bend_axis] - centre[out.bend_axis];
-    p[1 - out.bend_axis] += 0.5 * curvature * along * along;
-    v = p;
-  }
+  out.curvature = length > 0.0 ? out.bend_rad / length : 0.0;  // the angle spread over the length
+  out.centre = centre;
+  out.floor_z = lo.z();
+  for (Vec3& v : out.mesh.vertices) v = out.apply(v);
   return out;
+}
+
+Vec3 DeviatedPart::apply(const Vec3& v) const {
+  Vec3 p = centre + (v - centre).cwiseProduct(scale);
+  p.z() = floor_z + (v.z() - floor_z) * scale.z();  // it still rests on its lowest face
+  // A circular arc of small angle: the offset across grows with the square of the distance from the middle.
+  const double along = p[bend_axis] - centre[bend_axis];
+  p[1 - bend_axis] += 0.5 * curvature * along * along;
+  return p;
 }
 
 }  // namespace weldtwin

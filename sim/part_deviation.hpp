@@ -26,6 +26,12 @@ struct DeviatedPart {
   std::vector<Vec3> tacks;  ///< where the tack welds are (part frame, before scaling and bending)
   double bend_rad = 0.0;    ///< the bend's angle over the longest horizontal extent
   int bend_axis = 0;        ///< 0: along x (the bend moves points along y), 1: along y (moves them along x)
+  Vec3 centre = Vec3::Zero();  ///< the CAD's box centre: extents scale about it ...
+  double floor_z = 0.0;        ///< ... but for z, which scales from the lowest face (it stays on the table)
+  double curvature = 0.0;      ///< the bend's angle per metre along bend_axis [rad/m]
+  /// Where a point of the CAD (part frame) lies on the deviated part: its mesh's vertices, and its seams as
+  /// they really are.
+  Vec3 apply(const Vec3& cad_point) const;
   std::string describe() const;
 };
 

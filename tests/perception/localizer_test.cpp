@@ -276,6 +276,19 @@ TEST(Localizer, PoseErrorCountsOnlyWhatMovesTheSeams) {
   EXPECT_NEAR(shifted.seam_max_m, 7e-4, 1e-6);
 }
 
+TEST(Localizer, SeamDistanceIsTheFarthestEitherWay) {
+  // A 100 mm seam against one 0.3 mm to its side and 2 mm longer: 0.3 mm from it, but its last 2 mm are 2.02
+  // mm from the first's end.
+  std::vector<Vec3> a, b;
+  for (int i = 0; i <= 1000; ++i) a.emplace_back(1e-4 * i, 0, 0);
+  for (int i = 0; i <= 1020; ++i) b.emplace_back(1e-4 * i, 0.0003, 0);
+  EXPECT_NEAR(seam_distance_m(a, b), std::hypot(0.002, 0.0003), 1e-12);
+  EXPECT_NEAR(seam_distance_m(b, a), std::hypot(0.002, 0.0003), 1e-12);
+  b.resize(1001);
+  EXPECT_NEAR(seam_distance_m(a, b), 0.0003, 1e-12);
+  EXPECT_TRUE(std::isinf(seam_distance_m(a, {})));
+}
+
 TEST(Localizer, BadInputIsRefusedCleanly) {
   const auto dir = std::filesystem::temp_directory_path() / "weldtwin_localizer_test";
   std::filesystem::create_directories(dir);

@@ -93,5 +93,28 @@ TEST(PartDeviation, TheBendsSagittaIsThatOfACircularArcOfItsAngle) {
   }
 }
 
+TEST(PartDeviation, ASeamMovesWithThePartsSurface) {
+  // The seam along the bar's front top edge, its points 1 mm apart: on the deviated part it still lies on
+  // that edge (between the edge's two deviated corners, bowed as the bend bows it), and stretches with x.
+  PartDeviationSetting s;
+  s.dimension_m = 0.001;
+  s.bend_deg = 1.0;
+  const DeviatedPart d = deviate_part(bar(), {}, s, 7);
+  const Mesh cad = bar();
+  const Vec3 a = d.mesh.vertices[4], b = d.mesh.vertices[5];  // the corners (-x, -y, top) and (+x, -y, top)
+  EXPECT_LT((d.apply(cad.vertices[4]) - a).norm(), 1e-15);
+  EXPECT_LT((d.apply(cad.vertices[5]) - b).norm(), 1e-15);
+  for (double x = -0.15; x <= 0.15; x += 0.001) {
+    const Vec3 p = d.apply(Vec3(x, -0.025, 0.04));
+    EXPECT_NEAR(p.z(), a.z(), 1e-12);  // still on the top
+    // Along the edge by the scale, the middle of the bar staying put ...
+    EXPECT_NEAR(p.x(), x * d.scale.x(), 1e-12);
+    // ... and across it by the bend's sagitta at that x: a parabola through both corners, level in the
+    // middle.
+    const double t = p.x() / (0.15 * d.scale.x());
+    EXPECT_NEAR(p.y(), -0.025 * d.scale.y() + (a.y() + 0.025 * d.scale.y()) * t * t, 1e-9) << x;
+  }
+}
+
 }  // namespace
 }  // namespace weldtwin
