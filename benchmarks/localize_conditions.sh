@@ -51,6 +51,7 @@ conditions=(
   "one_pass_rescans_stray_returns|$one $rescans --lidar stray_returns=1"
   "one_pass_rescans_mount_error_calibrated|$one $rescans --mount-error-mm 5 --mount-error-deg 0.5 --calibrate"
   "one_pass_rescans_part_off_cad|$one $rescans --part-deviation-mm 1 --tack-welds 2 --bend-deg 1"
+  "one_pass_rescans_mount_error_uncalibrated|$one $rescans --mount-error-mm 5 --mount-error-deg 0.5"
   "real_noise_crossed_passes|$real_noise $crossed"
   "real_noise_crossed_passes_no_viewpoints|$real_noise $crossed --no-viewpoints"
   "crossed_passes_part_off_cad|$crossed --part-deviation-mm 1 --tack-welds 2 --bend-deg 1"
