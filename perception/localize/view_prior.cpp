@@ -16,6 +16,11 @@ constexpr int kRingDirections = 12;
 constexpr double kRingSpacingDeg = 20.0;  // each ring stands for the band this wide around its elevation
 constexpr double kCapFromDeg = 85.0;      // ... and straight up for the cap above this
 
+// What one point nothing explains costs: as one on a face the model takes as unseen [nats].
+double unexplained_view_nats(const ViewPriorSetting& s) {
+  return -s.weight * std::log(s.floor / (1.0 + s.floor));
+}
+
 }  // namespace
 
 const ViewDirections& view_directions_above() {
@@ -61,10 +66,6 @@ std::array<double, kViewDirections> view_totals(const std::vector<uint64_t>& mas
       if (masks[k] >> i & 1) total[static_cast<size_t>(i)] += v.d[static_cast<size_t>(i)].dot(normals[k]);
   for (double& t : total) t /= std::max<size_t>(1, masks.size());
   return total;
-}
-
-double unexplained_view_nats(const ViewPriorSetting& s) {
-  return -s.weight * std::log(s.floor / (1.0 + s.floor));
 }
 
 double view_prior_nats(const PartModel& m, const std::vector<int>& samples, int unexplained,

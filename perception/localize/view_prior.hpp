@@ -57,7 +57,4 @@ struct ViewPriorSetting {
 double view_prior_nats(const PartModel& model, const std::vector<int>& samples, int unexplained,
                        const ViewPriorSetting& setting);
 
-/// What one point nothing explains costs [nats].
-double unexplained_view_nats(const ViewPriorSetting& setting);
-
 }  // namespace weldtwin
